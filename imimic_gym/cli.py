@@ -1,0 +1,187 @@
+"""The `imimic` command: demo, clip, scenarios, bench."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import imimic_gym  # noqa: F401  (registers the env, sets headless GL)
+
+ESTIMATORS = ("oracle",)
+CONTROLLERS = ("oracle",)
+
+
+def _print_table(rows: dict[str, object]) -> None:
+    width = max(len(k) for k in rows)
+    for key, value in rows.items():
+        shown = f"{value:.3f}" if isinstance(value, float) else str(value)
+        print(f"  {key:<{width}}  {shown}")
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    import gymnasium as gym
+
+    from imimic_gym.clips.video import write_video
+    from imimic_gym.controllers import OracleController
+    from imimic_gym.plots import plot_tracking
+    from imimic_gym.rollout import run_episode
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    print(f"imimic demo: scenario {args.scenario}, seed {args.seed}, control {args.control}")
+    print("  estimator: oracle (the true angles). No vision estimator is built yet, so the "
+          "robot reads the ground truth: this shows the control loop's upper bound.")
+    kwargs = {"n_frames": args.frames} if args.frames else {}
+    env = gym.make("ImitateVideo-v0", scenario=args.scenario, control=args.control,
+                   clip_seeds=(args.seed,), render_mode="rgb_array", **kwargs)
+    trajectory = run_episode(env, OracleController(env), seed=args.seed, record=True)
+    fps = env.unwrapped.clip.fps
+    env.close()
+    write_video(out / "demo.mp4", trajectory.frames, fps)
+    title = f"{args.scenario}: human (solid) vs robot (dashed), oracle + {args.control}"
+    plot_tracking(trajectory, out / "angles.png", title=title)
+    metrics = {
+        **trajectory.metrics(),
+        "scenario": args.scenario,
+        "seed": args.seed,
+        "controller": "oracle",
+        "control": args.control,
+        "estimator": "oracle",
+    }
+    (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    print(f"wrote {out / 'demo.mp4'}, {out / 'angles.png'}, {out / 'metrics.json'}")
+    _print_table(metrics)
+    return 0
+
+
+def cmd_clip(args: argparse.Namespace) -> int:
+    from imimic_gym.clips.cache import load_clip
+    from imimic_gym.clips.scenarios import get_scenario
+    from imimic_gym.clips.video import write_video
+
+    overrides = {"seed": args.seed}
+    if args.frames:
+        overrides["n_frames"] = args.frames
+    spec = get_scenario(args.scenario, **overrides)
+    clip = load_clip(spec)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    stem = out / f"{args.scenario}-seed{args.seed}"
+    write_video(stem.with_suffix(".mp4"), clip.frames, clip.fps)
+    truth = clip.truth
+    assert truth is not None
+    stem.with_suffix(".json").write_text(json.dumps({
+        "meta": clip.meta,
+        "fps": clip.fps,
+        "units": {"angles": "rad", "angular_velocity": "rad/s",
+                  "angular_acceleration": "rad/s^2", "keypoints": "pixels (x, y)"},
+        "keypoint_names": list(truth.keypoint_names),
+        "angles": truth.angles.tolist(),
+        "angular_velocity": truth.angular_velocity.tolist(),
+        "angular_acceleration": truth.angular_acceleration.tolist(),
+        "keypoints": truth.keypoints.round(2).tolist(),
+        "visible": truth.visible.tolist(),
+        "occlusion": truth.occlusion.round(4).tolist(),
+    }) + "\n")
+    print(f"wrote {stem.with_suffix('.mp4')} and {stem.with_suffix('.json')} "
+          f"({len(clip)} frames, {clip.width}x{clip.height}, {clip.fps:g} fps)")
+    return 0
+
+
+def cmd_scenarios(args: argparse.Namespace) -> int:
+    from dataclasses import asdict
+
+    from imimic_gym.clips.scenarios import SCENARIOS
+
+    for name, spec in sorted(SCENARIOS.items()):
+        fields = {k: v for k, v in asdict(spec).items() if k not in ("name", "seed")}
+        print(f"{name:20s} " + ", ".join(f"{k}={v}" for k, v in fields.items()))
+    return 0
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    from imimic_gym.bench import bench_env, bench_render, machine
+
+    if args.what != "env":
+        raise SystemExit(f"unknown benchmark {args.what!r}; available: env")
+    result: dict[str, object] = {"machine": machine()}
+    print("ImitateVideo-v0 vs Reacher-v5, steps/s (median of alternating runs)...")
+    result.update(bench_env(steps=args.steps, repeats=args.repeats))
+    print(f"  imitate {result['imitate_steps_per_s']:.0f}  reacher "
+          f"{result['reacher_steps_per_s']:.0f}  ratio {result['ratio']:.2f} (target >= 0.5)")
+    print("clip rendering at 240x320, frames/s, truth included, no cache...")
+    result["render_frames_per_s"] = bench_render()
+    for name, fps in result["render_frames_per_s"].items():
+        print(f"  {name:20s} {fps:6.0f}")
+    if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
+        print(f"wrote {args.json}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from imimic_gym.clips.scenarios import scenario_names
+
+    parser = argparse.ArgumentParser(
+        prog="imimic",
+        description="Controlling by showing: a MuJoCo robot arm copies a human arm seen on "
+                    "video (the i-Mimic paper as a Gymnasium toolkit).",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    names = scenario_names()
+
+    demo = sub.add_parser(
+        "demo", help="clip -> estimator -> robot arm; writes demo.mp4, angles.png, metrics.json",
+        description="Run one scenario end to end, headless, and write into --out: demo.mp4 "
+                    "(video and robot side by side), angles.png (human vs robot angle and the "
+                    "error over time) and metrics.json (RMSE, max error, lag).",
+    )
+    demo.add_argument("--scenario", default="exp2-servo", choices=names,
+                      help="which demonstrator clip (default: %(default)s)")
+    demo.add_argument("--seed", type=int, default=0, help="clip seed (default: %(default)s)")
+    demo.add_argument("--control", default="position", choices=("position", "velocity", "torque"),
+                      help="robot actuation (default: %(default)s, the paper's servo)")
+    demo.add_argument("--frames", type=int, default=None,
+                      help="clip length in frames (default: the scenario's, 150 = 5 s)")
+    demo.add_argument("--out", default="demo_out", help="output folder (default: %(default)s)")
+    demo.set_defaults(func=cmd_demo)
+
+    clip = sub.add_parser(
+        "clip", help="render a scenario to an mp4 plus a truth JSON",
+        description="Render a scenario (or take it from the cache) and write "
+                    "<scenario>-seed<k>.mp4 and .json with the per-frame ground truth: joint "
+                    "angles, velocities, accelerations, keypoints, visibility, occlusion.",
+    )
+    clip.add_argument("--scenario", default="default", choices=names,
+                      help="scenario name (default: %(default)s)")
+    clip.add_argument("--seed", type=int, default=0, help="clip seed (default: %(default)s)")
+    clip.add_argument("--frames", type=int, default=None, help="clip length in frames")
+    clip.add_argument("--out", default="clips_out", help="output folder (default: %(default)s)")
+    clip.set_defaults(func=cmd_clip)
+
+    scen = sub.add_parser("scenarios", help="list the named scenarios and their settings")
+    scen.set_defaults(func=cmd_scenarios)
+
+    bench = sub.add_parser(
+        "bench", help="speed benchmarks, each against a reference measured in the same run",
+        description="env: steps/s of ImitateVideo-v0 and of Gymnasium's Reacher-v5 in the same "
+                    "run, and their ratio; plus clip rendering frames/s per scenario.",
+    )
+    bench.add_argument("what", choices=("env",), help="which benchmark")
+    bench.add_argument("--json", default=None, help="also write the results to this file")
+    bench.add_argument("--steps", type=int, default=3000, help="steps per timed run")
+    bench.add_argument("--repeats", type=int, default=5, help="alternating timed runs per env")
+    bench.set_defaults(func=cmd_bench)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    return int(args.func(args))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

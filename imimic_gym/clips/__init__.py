@@ -1,0 +1,11 @@
+"""Clip sources: rendered synthetic demonstrators (and, later, video files and cameras)."""
+
+from imimic_gym.clips.cache import load_clip
+from imimic_gym.clips.scenarios import SCENARIOS, ClipSpec, get_scenario, scenario_names
+from imimic_gym.clips.synthetic import render_clip
+from imimic_gym.clips.types import Clip, ClipTruth
+
+__all__ = [
+    "SCENARIOS", "Clip", "ClipSpec", "ClipTruth", "get_scenario", "load_clip", "render_clip",
+    "scenario_names",
+]

@@ -1,0 +1,277 @@
+"""The demonstrator's scene as MJCF: a person (or the paper's servo arm), a backdrop,
+lights, an occluding board and a distractor, all posed kinematically per frame.
+
+Naming contract with the renderer (`synthetic.py`):
+- joints ``q1..qn`` are the demonstrator's arm joints, ``sway_x``/``sway_roll`` the body;
+- sites ``kp_<name>`` are the keypoints, in ``ClipSpec`` order;
+- the moving links' geoms, and only they, are in geom group ``MOVING_GROUP``, so a pass
+  can draw them alone;
+- mocap bodies ``occluder`` and ``distractor``; the camera is ``film``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from imimic_gym.arms import fmt, link_frame_quat
+from imimic_gym.clips.scenarios import HUMAN_SEGMENTS, ClipSpec
+
+__all__ = ["MOVING_GROUP", "keypoint_names", "scene_mjcf", "workspace"]
+
+MOVING_GROUP = 1
+SHOULDER = np.array([0.21, -0.02, 1.42])  # the moving arm's shoulder, world frame
+HIP_HEIGHT = 0.95
+SKIN, SHIRT, PANTS = "0.87 0.67 0.53 1", "0.22 0.36 0.66 1", "0.2 0.2 0.25 1"
+
+
+def keypoint_names(spec: ClipSpec) -> tuple[str, ...]:
+    if spec.demonstrator == "human":
+        return ("shoulder", "elbow", "wrist", "hand_tip")
+    return ("pivot", *(f"joint{i + 2}" for i in range(spec.n_links - 1)), "tip")
+
+
+def _chain_points(spec: ClipSpec, angles: np.ndarray) -> np.ndarray:
+    """Keypoints in the arm plane (K, 2) metres from the base joint, for ``angles``."""
+    lengths = list(HUMAN_SEGMENTS) if spec.demonstrator == "human" else list(spec.link_lengths)
+    joints = np.zeros(len(lengths))
+    first = 1 if spec.demonstrator == "human" and spec.n_links == 1 else 0
+    joints[first : first + spec.n_links] = angles
+    direction = spec.reference_direction + np.cumsum(joints)
+    steps = np.stack([np.cos(direction), np.sin(direction)], axis=1) * np.array(lengths)[:, None]
+    return np.vstack([np.zeros(2), np.cumsum(steps, axis=0)])
+
+
+def workspace(spec: ClipSpec) -> tuple[np.ndarray, float]:
+    """Centre (world, m) and radius (m) of the region the arm sweeps, from its ranges."""
+    ranges = np.asarray(spec.joint_ranges)
+    samples = [
+        _chain_points(spec, ranges[:, 0] + f * (ranges[:, 1] - ranges[:, 0]))
+        for f in np.linspace(0, 1, 7)
+    ]
+    points = np.concatenate(samples)[1:]
+    centre2d = (points.min(axis=0) + points.max(axis=0)) / 2
+    radius = float(np.max(np.linalg.norm(points - centre2d, axis=1)))
+    if spec.demonstrator == "human":
+        return SHOULDER + np.array([centre2d[0], 0.0, centre2d[1]]), radius
+    return np.array([centre2d[0], centre2d[1], 0.024]), radius
+
+
+def _materials() -> str:
+    return f"""
+    <material name="wall" rgba="0.78 0.8 0.84 1"/>
+    <material name="tile" rgba="0.55 0.6 0.68 1"/>
+    <material name="skin" rgba="{SKIN}"/>
+    <material name="shirt" rgba="{SHIRT}"/>
+    <material name="pants" rgba="{PANTS}"/>
+    <material name="floor" rgba="0.45 0.42 0.4 1"/>
+    <material name="table" rgba="0.3 0.27 0.25 1"/>
+    <material name="servo" rgba="0.12 0.12 0.14 1"/>
+    <material name="paper" rgba="0.98 0.98 0.98 1"/>
+    <material name="board" rgba="0.55 0.38 0.22 1"/>
+    <material name="distractor" rgba="0.85 0.15 0.12 1"/>"""
+
+
+def _tiles(spec: ClipSpec) -> str:
+    """A checkerboard of flat tiles on the backdrop. Geometry, not a texture: texture
+    sampling costs the software renderer ~3 ms a frame, a few dozen quads almost nothing."""
+    if spec.background == "plain":
+        return ""
+    tiles = []
+    if spec.demonstrator == "human":
+        size, (nx, nz) = 0.3, (14, 9)
+        for i in range(nx):
+            for k in range(nz):
+                if (i + k) % 2 == 0:
+                    pos = (-2.1 + (i + 0.5) * size, 0.59, (k + 0.5) * size)
+                    tiles.append(f'<geom name="tile{i}_{k}" type="box" pos="{fmt(pos)}" '
+                                 f'size="{size / 2} 0.005 {size / 2}" material="tile"/>')
+    else:
+        size, n = 0.04, 10
+        for i in range(n):
+            for k in range(n):
+                if (i + k) % 2 == 0:
+                    pos = (-0.2 + (i + 0.5) * size, -0.15 + (k + 0.5) * size, 0.0002)
+                    tiles.append(f'<geom name="tile{i}_{k}" type="box" pos="{fmt(pos)}" '
+                                 f'size="{size / 2} {size / 2} 0.0002" material="tile"/>')
+    return "\n    ".join(tiles)
+
+
+def _human_body(spec: ClipSpec) -> str:
+    """Torso, head, legs, the still arm, and the moving arm chain with its joints."""
+    s = SHOULDER - np.array([0.0, 0.0, HIP_HEIGHT])
+    segments = [("upper_arm", HUMAN_SEGMENTS[0], 0.045, "shirt"),
+                ("forearm", HUMAN_SEGMENTS[1], 0.037, "skin"),
+                ("hand", HUMAN_SEGMENTS[2], 0.033, "skin")]
+    first_joint = 1 if spec.n_links == 1 else 0
+    chain, closing = "", ""
+    for i, (name, length, radius, material) in enumerate(segments):
+        pos = fmt(s) if i == 0 else fmt((segments[i - 1][1], 0, 0))
+        quat = f'quat="{fmt(link_frame_quat("vertical", spec.reference_direction))}"' if i == 0 else ""
+        joint_index = i - first_joint
+        joint = ""
+        if 0 <= joint_index < spec.n_links:
+            lo, hi = spec.joint_ranges[joint_index]
+            joint = f'<joint name="q{joint_index + 1}" axis="0 0 1" range="{lo:.12g} {hi:.12g}"/>'
+        group = f'group="{MOVING_GROUP}"' if i >= first_joint else ""
+        keypoint = ("shoulder", "elbow", "wrist")[i]
+        chain += (
+            f'<body name="{name}" pos="{pos}" {quat}>{joint}'
+            f'<site name="kp_{keypoint}" size="0.01"/>'
+            f'<geom name="{name}" type="capsule" fromto="0 0 0 {length} 0 0" '
+            f'size="{radius}" material="{material}" {group}/>'
+        )
+        closing += "</body>"
+    chain += f'<site name="kp_hand_tip" pos="{HUMAN_SEGMENTS[2] + 0.033} 0 0" size="0.01"/>'
+    return f"""
+    <body name="root" pos="0 0 0">
+      <joint name="sway_x" type="slide" axis="1 0 0"/>
+      <geom name="leg_l" type="capsule" fromto="-0.09 0 0.05 -0.1 0 {HIP_HEIGHT}" size="0.07" material="pants"/>
+      <geom name="leg_r" type="capsule" fromto="0.09 0 0.05 0.1 0 {HIP_HEIGHT}" size="0.07" material="pants"/>
+      <body name="upper_body" pos="0 0 {HIP_HEIGHT}">
+        <joint name="sway_roll" axis="0 -1 0"/>
+        <geom name="torso" type="ellipsoid" pos="0 0 0.25" size="0.17 0.1 0.3" material="shirt"/>
+        <geom name="neck" type="capsule" fromto="0 0 0.5 0 0 0.6" size="0.045" material="skin"/>
+        <geom name="head" type="sphere" pos="0 0 0.7" size="0.11" material="skin"/>
+        <geom name="still_upper_arm" type="capsule" fromto="-0.21 0 0.47 -0.24 0 0.18" size="0.045" material="shirt"/>
+        <geom name="still_forearm" type="capsule" fromto="-0.24 0 0.18 -0.25 0 -0.08" size="0.037" material="skin"/>
+        {chain}{closing}
+      </body>
+    </body>"""
+
+
+def _servo_body(spec: ClipSpec) -> str:
+    """The paper's servo arm seen from above: servo case, horn and paper links."""
+    chain, closing = "", ""
+    for i, length in enumerate(spec.link_lengths):
+        pos = "0 0 0.024" if i == 0 else fmt((spec.link_lengths[i - 1], 0, 0.004))
+        quat = f'quat="{fmt(link_frame_quat("horizontal", spec.reference_direction))}"' if i == 0 else ""
+        lo, hi = spec.joint_ranges[i]
+        keypoint = "pivot" if i == 0 else f"joint{i + 1}"
+        chain += (
+            f'<body name="link{i + 1}" pos="{pos}" {quat}>'
+            f'<joint name="q{i + 1}" axis="0 0 1" range="{lo:.12g} {hi:.12g}"/>'
+            f'<site name="kp_{keypoint}" size="0.003"/>'
+            f'<geom name="horn{i + 1}" type="cylinder" size="0.008 0.002" material="servo" '
+            f'group="{MOVING_GROUP}"/>'
+            f'<geom name="link{i + 1}" type="box" pos="{length / 2} 0 0.002" '
+            f'size="{length / 2 + 0.006} 0.0075 0.001" material="paper" group="{MOVING_GROUP}"/>'
+        )
+        closing += "</body>"
+    chain += f'<site name="kp_tip" pos="{spec.link_lengths[-1]} 0 0" size="0.003"/>'
+    return f"""
+    <body name="root" pos="0 0 0">
+      <joint name="sway_x" type="slide" axis="1 0 0"/>
+      <inertial pos="0 0 0" mass="0.1" diaginertia="1e-4 1e-4 1e-4"/>
+      <body name="upper_body">
+        <joint name="sway_roll" axis="0 0 1"/>
+        <geom name="servo_case" type="box" pos="0.005 0 0.011" size="0.0115 0.0062 0.011" material="servo"/>
+        {chain}{closing}
+      </body>
+    </body>"""
+
+
+def _clutter(spec: ClipSpec, rng: np.random.Generator) -> str:
+    if spec.background != "cluttered":
+        return ""
+    shapes = []
+    for i in range(7):
+        colour = fmt((*rng.uniform(0.15, 0.95, 3), 1.0))
+        if spec.demonstrator == "human":
+            pos = (rng.uniform(-1.4, 1.6), 0.58, rng.uniform(0.4, 2.3))
+            size = (rng.uniform(0.06, 0.2), 0.01, rng.uniform(0.06, 0.2))
+        else:
+            pos = (rng.uniform(-0.15, 0.15), rng.uniform(-0.1, 0.2), 0.0005)
+            size = (rng.uniform(0.008, 0.025), rng.uniform(0.008, 0.025), 0.0005)
+        shapes.append(
+            f'<geom name="clutter{i}" type="box" pos="{fmt(pos)}" size="{fmt(size)}" rgba="{colour}"/>'
+        )
+    return "\n    ".join(shapes)
+
+
+def scene_mjcf(spec: ClipSpec, rng: np.random.Generator) -> str:
+    """MJCF of the whole scene for ``spec``. ``rng`` places the clutter."""
+    centre, radius = workspace(spec)
+    light = spec.lighting
+    if spec.demonstrator == "human":
+        look = np.array([0.3, 0.0, 1.35])
+        camera = f'<camera name="film" pos="{fmt(look - (0, spec.camera_distance, 0))}" xyaxes="1 0 0 0 0 1" fovy="45"/>'
+        backdrop = (
+            '<geom name="wall" type="box" pos="0 0.6 1.5" size="6 0.005 4" material="wall"/>\n'
+            '    <geom name="floor" type="box" pos="0 0 -0.005" size="6 6 0.005" material="floor"/>'
+        )
+        body = _human_body(spec)
+        board_offset, board_axis = np.array([0, -0.5, 0]), "xz"
+        distractor_size = 0.08
+        light_el = f'<light name="key" directional="true" pos="1 -3 4" dir="-0.25 0.75 -1" diffuse="{fmt((0.7 * light,) * 3)}" ambient="{fmt((0.2 * light,) * 3)}" specular="0.1 0.1 0.1" castshadow="false"/>'
+    else:
+        look = np.array([0.0, 0.05, 0.0])
+        camera = f'<camera name="film" pos="{fmt((look[0], look[1], spec.camera_distance))}" xyaxes="1 0 0 0 1 0" fovy="45"/>'
+        backdrop = '<geom name="table" type="box" pos="0 0 -0.005" size="2 2 0.005" material="table"/>'
+        body = _servo_body(spec)
+        board_offset, board_axis = np.array([0, 0, 0.1]), "xy"
+        distractor_size = 0.012
+        light_el = f'<light name="key" directional="true" pos="0.2 -0.3 1" dir="-0.2 0.3 -1" diffuse="{fmt((0.7 * light,) * 3)}" ambient="{fmt((0.2 * light,) * 3)}" specular="0.1 0.1 0.1" castshadow="false"/>'
+    half_width = {"none": 0.0, "low": 0.08, "high": 0.3}[spec.occluder] * radius
+    half_height = 0.75 * radius
+    board_size = (half_width, 0.004, half_height) if board_axis == "xz" else (half_width, half_height, 0.002)
+    occluder = ""
+    if spec.occluder != "none":
+        occluder = (
+            f'<body name="occluder" mocap="true" pos="{fmt(centre + board_offset)}">'
+            f'<geom name="occluder" type="box" size="{fmt(board_size)}" material="board" '
+            f'/></body>'
+        )
+    distractor = ""
+    if spec.background == "cluttered":
+        behind = np.array([0, 0.35, 0]) if spec.demonstrator == "human" else np.array([0, 0, distractor_size - 0.024])
+        distractor = (
+            f'<body name="distractor" mocap="true" pos="{fmt(centre + behind)}">'
+            f'<geom name="distractor" type="sphere" size="{distractor_size}" material="distractor"/></body>'
+        )
+    return f"""<mujoco model="imimic_demonstrator">
+  <compiler angle="radian"/>
+  <visual>
+    <quality shadowsize="0" offsamples="0" numslices="16" numstacks="8" numquads="1"/>
+    <global offwidth="{spec.width}" offheight="{spec.height}"/>
+    <headlight ambient="{fmt((0.25 * light,) * 3)}" diffuse="{fmt((0.35 * light,) * 3)}" specular="0 0 0"/>
+    <map znear="0.01"/>
+  </visual>
+  <asset>{_materials()}
+  </asset>
+  <worldbody>
+    {light_el}
+    {camera}
+    {backdrop}
+    {_tiles(spec)}
+    {_clutter(spec, rng)}
+    {body}
+    {occluder}
+    {distractor}
+  </worldbody>
+</mujoco>
+"""
+
+
+def occluder_path(spec: ClipSpec, t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """(T, 3) board centre offsets (m): sweeps across the arm, along the image's x axis."""
+    _, radius = workspace(spec)
+    period = rng.uniform(2.5, 3.5)
+    phase = rng.uniform(0, 2 * math.pi)
+    offsets = np.zeros((t.size, 3))
+    offsets[:, 0] = 1.1 * radius * np.sin(2 * math.pi * t / period + phase)
+    return offsets
+
+
+def distractor_path(spec: ClipSpec, t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """(T, 3) offsets (m) of the distractor ball: a Lissajous loop over the background."""
+    _, radius = workspace(spec)
+    periods = rng.uniform(1.6, 2.6, size=2)
+    phases = rng.uniform(0, 2 * math.pi, size=2)
+    a = 1.5 * radius * np.sin(2 * math.pi * t / periods[0] + phases[0])
+    b = 0.8 * radius * np.sin(2 * math.pi * t / periods[1] + phases[1])
+    offsets = np.zeros((t.size, 3))
+    offsets[:, 0] = a
+    offsets[:, 2 if spec.demonstrator == "human" else 1] = b
+    return offsets

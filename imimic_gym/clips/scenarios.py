@@ -1,0 +1,178 @@
+"""`ClipSpec`, every knob of a synthetic clip, and the named scenarios of the paper."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import asdict, dataclass, field, replace
+from typing import Any, Literal
+
+from imimic_gym.arms import MAX_LINKS, ArmSpec, Control
+from imimic_gym.clips.motion import MOTION_PROFILES, MotionProfile
+
+__all__ = ["SCENARIOS", "ClipSpec", "get_scenario", "scenario_names"]
+
+Demonstrator = Literal["human", "servo"]
+Background = Literal["plain", "textured", "cluttered"]
+Occluder = Literal["none", "low", "high"]
+
+# Human segment lengths (m): upper arm, forearm, hand.
+HUMAN_SEGMENTS = (0.30, 0.27, 0.17)
+SERVO_LINK = 0.105  # the paper's paper link, 10.5 cm
+DEG = math.pi / 180
+
+
+@dataclass(frozen=True)
+class ClipSpec:
+    """Everything that determines a synthetic clip; equal specs give identical clips.
+
+    Attributes:
+        demonstrator: ``"human"`` (a standing person filmed from the front, arm moving in
+            the image plane) or ``"servo"`` (the paper's servo arm filmed from above).
+        n_links: moving links, 1 to 3. Human: 1 = forearm (elbow), 2 = + shoulder,
+            3 = + wrist. Servo: a chain of n paper links.
+        motion: ``"sinusoid"``, ``"spline"`` (smooth random) or ``"fast"`` (fast random).
+        background: ``"plain"``, ``"textured"`` or ``"cluttered"`` (shapes on the wall and
+            a moving distractor ball).
+        lighting: light intensity in [0.2, 1.0]; the paper reports DON works above 0.5.
+        camera_distance: camera to demonstrator, metres.
+        sway: body sway amplitude, 0 = still, 1 = 4 cm and 3 degrees of torso roll.
+        occluder: a board crossing in front of the arm: ``"none"``, ``"low"``, ``"high"``.
+        height, width: image size in pixels.
+        fps: frames per second.
+        n_frames: clip length in frames.
+        seed: seeds the motion, occluder, distractor and clutter.
+        name: the scenario's name; not part of the clip's identity.
+    """
+
+    demonstrator: Demonstrator = "human"
+    n_links: int = 1
+    motion: MotionProfile = "sinusoid"
+    background: Background = "plain"
+    lighting: float = 1.0
+    camera_distance: float = 2.2
+    sway: float = 0.0
+    occluder: Occluder = "none"
+    height: int = 240
+    width: int = 320
+    fps: float = 30.0
+    n_frames: int = 150
+    seed: int = 0
+    name: str = field(default="custom", compare=False)
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.n_links, int) and 1 <= self.n_links <= MAX_LINKS):
+            raise ValueError(
+                f"n_links must be an integer from 1 to {MAX_LINKS}, got {self.n_links!r}"
+            )
+        for name, value, allowed in (
+            ("demonstrator", self.demonstrator, ("human", "servo")),
+            ("motion", self.motion, MOTION_PROFILES),
+            ("background", self.background, ("plain", "textured", "cluttered")),
+            ("occluder", self.occluder, ("none", "low", "high")),
+        ):
+            if value not in allowed:
+                raise ValueError(f"{name} must be one of {allowed}, got {value!r}")
+        if not 0.2 <= self.lighting <= 1.0:
+            raise ValueError(f"lighting must be in [0.2, 1.0], got {self.lighting}")
+        for name in ("height", "width", "n_frames"):
+            value = getattr(self, name)
+            if not (isinstance(value, int) and value > 0):
+                raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        if not self.fps > 0:
+            raise ValueError(f"fps must be positive, got {self.fps}")
+        if not self.camera_distance > 0:
+            raise ValueError(f"camera_distance must be positive metres, got {self.camera_distance}")
+        if not self.sway >= 0:
+            raise ValueError(f"sway must be >= 0, got {self.sway}")
+
+    def replace(self, **changes: Any) -> ClipSpec:
+        return replace(self, **changes)
+
+    def key(self) -> str:
+        """A content hash of everything that determines the pixels (not the name)."""
+        fields = asdict(self)
+        fields.pop("name")
+        return hashlib.sha256(json.dumps(fields, sort_keys=True).encode()).hexdigest()[:20]
+
+    # Geometry that the demonstrator scene and the matching robot arm share.
+    @property
+    def link_lengths(self) -> tuple[float, ...]:
+        if self.demonstrator == "servo":
+            return (SERVO_LINK,) * self.n_links
+        if self.n_links == 1:
+            return (HUMAN_SEGMENTS[1],)
+        return HUMAN_SEGMENTS[: self.n_links]
+
+    @property
+    def joint_ranges(self) -> tuple[tuple[float, float], ...]:
+        """Joint limits in rad, shared by the demonstrator's motion and the robot."""
+        if self.demonstrator == "servo":
+            return ((-60 * DEG, 60 * DEG),) * self.n_links  # the paper's 120 degree servo
+        shoulder, elbow, wrist = (0.0, 150 * DEG), (0.0, 120 * DEG), (-60 * DEG, 60 * DEG)
+        return ((elbow,), (shoulder, elbow), (shoulder, elbow, wrist))[self.n_links - 1]
+
+    @property
+    def reference_direction(self) -> float:
+        """Image-plane direction (rad, CCW from image right) of the fixed reference link."""
+        if self.demonstrator == "servo":
+            return math.pi / 2  # the servo's zero mark points up the image
+        return 0.0 if self.n_links == 1 else -math.pi / 2  # upper arm out, or torso down
+
+    def robot_arm(self, control: Control = "position") -> ArmSpec:
+        """A robot arm that matches this demonstrator's links, ranges and viewpoint."""
+        if self.demonstrator == "servo":
+            masses, damping, reference = (0.02,) * self.n_links, 2e-4, 0.0
+            plane, radius = "horizontal", 0.006
+        else:
+            masses = (0.8,) if self.n_links == 1 else (1.2, 0.8, 0.4)[: self.n_links]
+            damping, plane, radius = 0.05, "vertical", 0.025
+            reference = HUMAN_SEGMENTS[0] if self.n_links == 1 else 0.45
+        max_torque = 0.3 if self.demonstrator == "servo" else 25.0
+        return ArmSpec(
+            link_lengths=self.link_lengths,
+            link_masses=masses,
+            joint_ranges=self.joint_ranges,
+            joint_damping=damping,
+            plane=plane,
+            reference_direction=self.reference_direction,
+            reference_length=reference,
+            control=control,
+            link_radius=radius,
+            max_torque=max_torque,
+        )
+
+
+SCENARIOS: dict[str, ClipSpec] = {
+    spec.name: spec
+    for spec in (
+        ClipSpec(name="default"),
+        # Paper experiment 1: fast random motion, body sway, a busy background.
+        ClipSpec(name="exp1-noisy-fast", motion="fast", background="cluttered", sway=1.0,
+                 lighting=0.7),
+        # Paper experiment 2: the one-link servo filmed from 32 cm above, static background.
+        ClipSpec(name="exp2-servo", demonstrator="servo", motion="spline",
+                 camera_distance=0.32),
+        # Paper experiment 3: a standing person's forearm, slight sway, moving background,
+        # three levels of occlusion.
+        *(
+            ClipSpec(name=f"exp3-forearm-{level}", motion="spline", background="cluttered",
+                     sway=0.3, occluder=level)
+            for level in ("none", "low", "high")
+        ),
+        ClipSpec(name="chain-2", n_links=2, motion="spline", background="textured"),
+        ClipSpec(name="chain-3", n_links=3, motion="spline", background="textured"),
+    )
+}
+
+
+def scenario_names() -> list[str]:
+    return sorted(SCENARIOS)
+
+
+def get_scenario(name: str, **overrides: Any) -> ClipSpec:
+    """The named scenario's spec, with any field overridden (``seed=3, n_frames=60``)."""
+    if name not in SCENARIOS:
+        raise ValueError(f"unknown scenario {name!r}; valid names: {', '.join(scenario_names())}")
+    return SCENARIOS[name].replace(**overrides) if overrides else SCENARIOS[name]

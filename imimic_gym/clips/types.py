@@ -1,0 +1,132 @@
+"""`Clip` and `ClipTruth`: what every clip source produces and every consumer reads."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Clip", "ClipTruth"]
+
+
+def _check(name: str, array: np.ndarray, shape: tuple[int | None, ...], dtype: Any) -> None:
+    if array.dtype != dtype:
+        raise ValueError(f"{name} must have dtype {np.dtype(dtype)}, got {array.dtype}")
+    if array.ndim != len(shape) or any(
+        want is not None and got != want for got, want in zip(array.shape, shape, strict=True)
+    ):
+        expected = "x".join("?" if s is None else str(s) for s in shape)
+        got = "x".join(map(str, array.shape))
+        raise ValueError(f"{name} must have shape {expected}, got {got}")
+
+
+@dataclass(frozen=True)
+class ClipTruth:
+    """Per-frame ground truth of a clip. T frames, n joints, K keypoints.
+
+    Attributes:
+        angles: (T, n) float64, joint angles in rad (DESIGN.md convention).
+        angular_velocity: (T, n) float64, rad/s.
+        angular_acceleration: (T, n) float64, rad/s^2.
+        keypoints: (T, K, 2) float32 pixel coordinates (x = column, y = row), named by
+            ``keypoint_names``.
+        visible: (T, K) bool, the keypoint is inside the image and not hidden.
+        occlusion: (T,) float32 in [0, 1], fraction of the moving links' pixels hidden
+            by an occluder.
+        keypoint_names: K names, e.g. ("shoulder", "elbow", "wrist", "hand_tip").
+    """
+
+    angles: np.ndarray
+    angular_velocity: np.ndarray
+    angular_acceleration: np.ndarray
+    keypoints: np.ndarray
+    visible: np.ndarray
+    occlusion: np.ndarray
+    keypoint_names: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        t, n = self.angles.shape if self.angles.ndim == 2 else (None, None)
+        k = len(self.keypoint_names)
+        _check("truth.angles", self.angles, (None, None), np.float64)
+        _check("truth.angular_velocity", self.angular_velocity, (t, n), np.float64)
+        _check("truth.angular_acceleration", self.angular_acceleration, (t, n), np.float64)
+        _check("truth.keypoints", self.keypoints, (t, k, 2), np.float32)
+        _check("truth.visible", self.visible, (t, k), np.bool_)
+        _check("truth.occlusion", self.occlusion, (t,), np.float32)
+
+    @property
+    def n_joints(self) -> int:
+        return int(self.angles.shape[1])
+
+
+@dataclass(frozen=True)
+class Clip:
+    """A video of a demonstrator, and what is known about it.
+
+    Attributes:
+        frames: (T, H, W, 3) uint8 RGB.
+        fps: frames per second, a float (29.97 stays 29.97).
+        depth: (T, H, W) float32 distance along the camera axis in metres, or None.
+        truth: ground truth, or None for footage without annotations.
+        meta: where the clip came from: scenario, seed, n_links, source, and for
+            synthetic clips ``reference_direction`` (rad) and ``joint_ranges`` (rad) so a
+            matching robot can be built.
+    """
+
+    frames: np.ndarray
+    fps: float
+    depth: np.ndarray | None = None
+    truth: ClipTruth | None = None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        _check("frames", self.frames, (None, None, None, 3), np.uint8)
+        if len(self.frames) == 0:
+            raise ValueError("a clip needs at least one frame, got 0")
+        t, h, w = self.frames.shape[:3]
+        if not (isinstance(self.fps, float) and self.fps > 0):
+            raise ValueError(f"fps must be a positive float, got {self.fps!r}")
+        if self.depth is not None:
+            _check("depth", self.depth, (t, h, w), np.float32)
+        if self.truth is not None and len(self.truth.angles) != t:
+            raise ValueError(f"truth has {len(self.truth.angles)} frames, the clip has {t}")
+
+    def __len__(self) -> int:
+        return int(self.frames.shape[0])
+
+    @property
+    def height(self) -> int:
+        return int(self.frames.shape[1])
+
+    @property
+    def width(self) -> int:
+        return int(self.frames.shape[2])
+
+    def resized(self, height: int | None, width: int | None) -> Clip:
+        """This clip at ``height`` x ``width`` pixels (None keeps a side), keypoints scaled.
+        Frames are resampled with area averaging, depth with nearest neighbour."""
+        import cv2
+
+        h, w = height or self.height, width or self.width
+        if (h, w) == (self.height, self.width):
+            return self
+        frames = np.stack(
+            [cv2.resize(f, (w, h), interpolation=cv2.INTER_AREA) for f in self.frames]
+        )
+        depth = None
+        if self.depth is not None:
+            depth = np.stack(
+                [cv2.resize(d, (w, h), interpolation=cv2.INTER_NEAREST) for d in self.depth]
+            )
+        truth = self.truth
+        if truth is not None:
+            scale = np.array([w / self.width, h / self.height], dtype=np.float32)
+            truth = replace(truth, keypoints=(truth.keypoints * scale).astype(np.float32))
+        return Clip(frames=frames, fps=self.fps, depth=depth, truth=truth, meta=dict(self.meta))
+
+    @property
+    def n_links(self) -> int:
+        if self.truth is not None:
+            return self.truth.n_joints
+        return int(self.meta.get("n_links", 1))

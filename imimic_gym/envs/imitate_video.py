@@ -1,0 +1,304 @@
+"""ImitateVideo-v0: a MuJoCo robot arm follows a human arm that it sees only on video."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import EzPickle
+
+from imimic_gym.arms import CONTROL_MODES, MAX_LINKS, ArmSpec, build_arm_model
+from imimic_gym.clips.cache import load_clip
+from imimic_gym.clips.scenarios import ClipSpec, get_scenario
+from imimic_gym.clips.types import Clip
+from imimic_gym.metrics import wrap_angle
+from imimic_gym.render import OffscreenRenderer
+
+__all__ = ["ImitateVideoEnv"]
+
+MODALITIES = ("rgb", "depth")
+MAX_PHYSICS_STEP = 0.002  # s; the physics step is the largest that divides a frame evenly
+MAX_OBSERVED_SPEED = 200.0  # rad/s; the joint-velocity sensor saturates here
+
+
+def depth_to_frame(depth: np.ndarray) -> np.ndarray:
+    """(T, H, W) metres to (T, H, W, 3) uint8, near = bright, stretched between the clip's
+    1st and 99th depth percentiles (one fixed mapping for the whole clip)."""
+    near, far = np.percentile(depth, [1, 99])
+    scaled = (far - depth) / max(far - near, 1e-6)
+    grey = np.clip(scaled * 255.0, 0, 255).astype(np.uint8)
+    return np.repeat(grey[..., None], 3, axis=-1)
+
+
+class ImitateVideoEnv(gym.Env, EzPickle):
+    """
+    ## Description
+    A human arm moves in a video clip; a planar MuJoCo robot arm of the same number of
+    links should move the same way at the same time ("controlling by showing", the
+    i-Mimic paper). The agent sees the video frame and the robot's own joint state. One
+    step is one video frame; the physics runs in between. Clips are rendered synthetic
+    scenarios with ground truth (the paper's experiments 1-3 and more) or a `Clip` object.
+
+    ## Action Space
+    `Box(-1, 1, (n_links,), float32)`, mapped linearly onto each actuator's range:
+    target joint angle (rad) for `control="position"` (a servo, the paper's choice),
+    target joint velocity (rad/s) for `"velocity"`, joint torque (N m) for `"torque"`.
+    Actions outside [-1, 1] are clipped; a NaN or a wrong shape raises `ValueError` and
+    leaves the simulation untouched.
+
+    ## Observation Space
+    `Dict`:
+    - `frame`: `Box(0, 255, (height, width, 3), uint8)`, the current video frame, RGB; for
+      `modality="depth"` the depth video as grey levels, near = bright.
+    - `qpos`: `Box(-pi, pi, (n_links,), float64)`, robot joint angles, rad (every joint
+      range lies inside).
+    - `qvel`: `Box(-200, 200, (n_links,), float64)`, robot joint velocities, rad/s,
+      saturating at +-200 like a real encoder's speed estimate.
+
+    ## Rewards
+    `reward = reward_tracking + reward_ctrl`, both in `info`:
+    - `reward_tracking = -tracking_weight * sum_i wrap(q_i - q*_i)^2`, with `q*` the
+      demonstrator's true joint angles (rad) in the frame that the observation shows;
+    - `reward_ctrl = -ctrl_cost_weight * sum_i a_i^2`.
+    `info` also holds `tracking_error_deg` (RMS over joints of the wrapped error, degrees),
+    `frame_index`, `target_angles` (rad), `occlusion` (fraction of the moving links
+    hidden) and `clip_seed`.
+
+    ## Starting State
+    The robot starts at the demonstrator's first-frame angles plus uniform noise of
+    `reset_noise_scale` rad per joint (clipped to the joint range), at rest. The clip is
+    drawn from `clip_seeds` with the env's random generator, or set by
+    `reset(options={"clip_seed": s})`.
+
+    ## Episode End
+    One episode is one clip: after the clip's last frame, `truncated=True`. `terminated`
+    is always False (the task has no end state). No `TimeLimit` is registered: the clip
+    length is the limit.
+
+    ## Arguments
+    | Argument | Default | Meaning |
+    |---|---|---|
+    | `scenario` | `"default"` | scenario name (`imimic_gym.scenario_names()`) or a `Clip` |
+    | `n_links` | `None` | 1-3 moving links; `None` takes the scenario's |
+    | `control` | `"position"` | `"position"`, `"velocity"` or `"torque"` actuation |
+    | `modality` | `"rgb"` | `"rgb"` or `"depth"` frames in the observation |
+    | `width` | `None` | frame width in pixels; `None` takes the clip's (320) |
+    | `height` | `None` | frame height in pixels; `None` takes the clip's (240) |
+    | `clip_seeds` | `(0,)` | seeds of the scenario's clips that resets draw from |
+    | `n_frames` | `None` | clip length in frames; `None` takes the scenario's (150) |
+    | `tracking_weight` | `1.0` | weight of the squared angle error, per rad^2 |
+    | `ctrl_cost_weight` | `0.001` | weight of the squared action |
+    | `reset_noise_scale` | `0.02` | start-pose noise, rad |
+    | `render_mode` | `None` | `"rgb_array"`: `render()` returns video and robot side by side |
+
+    ## Version History
+    - v0: first version.
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 30}
+
+    def __init__(
+        self,
+        scenario: str | Clip = "default",
+        n_links: int | None = None,
+        control: str = "position",
+        modality: str = "rgb",
+        width: int | None = None,
+        height: int | None = None,
+        clip_seeds: Sequence[int] = (0,),
+        n_frames: int | None = None,
+        tracking_weight: float = 1.0,
+        ctrl_cost_weight: float = 1e-3,
+        reset_noise_scale: float = 0.02,
+        render_mode: str | None = None,
+    ) -> None:
+        EzPickle.__init__(
+            self, scenario, n_links, control, modality, width, height, clip_seeds,
+            n_frames, tracking_weight, ctrl_cost_weight, reset_noise_scale, render_mode,
+        )
+        if control not in CONTROL_MODES:
+            raise ValueError(f"control must be one of {CONTROL_MODES}, got {control!r}")
+        if modality not in MODALITIES:
+            raise ValueError(f"modality must be one of {MODALITIES}, got {modality!r}")
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        for name, value in (("width", width), ("height", height), ("n_frames", n_frames)):
+            if value is not None and not (isinstance(value, int) and value > 0):
+                raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        if n_links is not None and not (isinstance(n_links, int) and 1 <= n_links <= MAX_LINKS):
+            raise ValueError(f"n_links must be an integer from 1 to {MAX_LINKS}, got {n_links!r}")
+        self.control, self.modality, self.render_mode = control, modality, render_mode
+        self.tracking_weight, self.ctrl_cost_weight = tracking_weight, ctrl_cost_weight
+        self.reset_noise_scale = reset_noise_scale
+
+        self._clips: dict[int, Clip] = {}
+        self._fixed_clip: Clip | None = None
+        self._spec: ClipSpec | None = None
+        if isinstance(scenario, Clip):
+            if n_links is not None and n_links != scenario.n_links:
+                raise ValueError(f"n_links={n_links} but the clip has {scenario.n_links} links")
+            self._fixed_clip = scenario.resized(height, width)
+            self.clip_seeds: tuple[int, ...] = (int(scenario.meta.get("seed", 0)),)
+            arm = ClipSpec(
+                demonstrator=scenario.meta.get("demonstrator", "human"), n_links=scenario.n_links
+            ).robot_arm(control)
+        else:
+            overrides = {k: v for k, v in (("n_links", n_links), ("width", width),
+                         ("height", height), ("n_frames", n_frames)) if v is not None}
+            self._spec = get_scenario(scenario, **overrides)
+            self.clip_seeds = tuple(int(s) for s in clip_seeds)
+            if not self.clip_seeds:
+                raise ValueError("clip_seeds must name at least one seed, got an empty sequence")
+            arm = self._spec.robot_arm(control)
+        self.arm: ArmSpec = arm
+        self.clip = self._load(self.clip_seeds[0])
+        fps = self.clip.fps
+
+        self.model = build_arm_model(arm)
+        self.n_substeps = max(1, math.ceil(1.0 / fps / MAX_PHYSICS_STEP))
+        self.model.opt.timestep = 1.0 / fps / self.n_substeps
+        self.data = mujoco.MjData(self.model)
+        self._ctrl_low = self.model.actuator_ctrlrange[:, 0].copy()
+        self._ctrl_high = self.model.actuator_ctrlrange[:, 1].copy()
+        self._joint_low = self.model.jnt_range[:, 0].copy()
+        self._joint_high = self.model.jnt_range[:, 1].copy()
+        self.metadata = {**self.metadata, "render_fps": fps}
+
+        n = arm.n_links
+        h, w = self.clip.height, self.clip.width
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(n,), dtype=np.float32)
+        self.observation_space = spaces.Dict({
+            "frame": spaces.Box(0, 255, shape=(h, w, 3), dtype=np.uint8),
+            "qpos": spaces.Box(-np.pi, np.pi, shape=(n,), dtype=np.float64),
+            "qvel": spaces.Box(
+                -MAX_OBSERVED_SPEED, MAX_OBSERVED_SPEED, shape=(n,), dtype=np.float64
+            ),
+        })
+        self.frame_index: int | None = None
+        self._frames = self._observed_frames(self.clip)
+        self._renderer: OffscreenRenderer | None = None
+
+    # Clips ---------------------------------------------------------------------------
+    def _load(self, seed: int) -> Clip:
+        if self._fixed_clip is not None:
+            return self._fixed_clip
+        if seed not in self._clips:
+            assert self._spec is not None
+            self._clips[seed] = load_clip(self._spec.replace(seed=seed))
+        return self._clips[seed]
+
+    def _observed_frames(self, clip: Clip) -> np.ndarray:
+        if self.modality == "rgb":
+            return clip.frames
+        if clip.depth is None:
+            raise ValueError(f"modality='depth' needs a clip with depth; clip {clip.meta} has none")
+        return depth_to_frame(clip.depth)
+
+    # Helpers -------------------------------------------------------------------------
+    def action_to_command(self, action: np.ndarray) -> np.ndarray:
+        """Actuator command (rad, rad/s or N m) for a normalised action in [-1, 1]."""
+        a = np.clip(np.asarray(action, dtype=np.float64), -1.0, 1.0)
+        return self._ctrl_low + (a + 1.0) * 0.5 * (self._ctrl_high - self._ctrl_low)
+
+    def command_to_action(self, command: np.ndarray) -> np.ndarray:
+        """The normalised action (float32, clipped to [-1, 1]) for an actuator command."""
+        a = 2.0 * (np.asarray(command) - self._ctrl_low) / (self._ctrl_high - self._ctrl_low) - 1.0
+        return np.clip(a, -1.0, 1.0).astype(np.float32)
+
+    def target_angles(self, frame_index: int) -> np.ndarray:
+        """The demonstrator's true joint angles (rad) at ``frame_index`` (clamped to the clip)."""
+        assert self.clip.truth is not None
+        i = min(max(frame_index, 0), len(self.clip) - 1)
+        return self.clip.truth.angles[i].copy()
+
+    def _obs(self) -> dict[str, np.ndarray]:
+        return {
+            "frame": self._frames[self.frame_index].copy(),
+            "qpos": self.data.qpos.copy(),
+            "qvel": np.clip(self.data.qvel, -MAX_OBSERVED_SPEED, MAX_OBSERVED_SPEED),
+        }
+
+    def _info(self) -> dict[str, Any]:
+        assert self.frame_index is not None and self.clip.truth is not None
+        target = self.clip.truth.angles[self.frame_index]
+        error = wrap_angle(self.data.qpos - target)
+        return {
+            "tracking_error_deg": float(np.degrees(np.sqrt(np.mean(error**2)))),
+            "frame_index": self.frame_index,
+            "target_angles": target.copy(),
+            "occlusion": float(self.clip.truth.occlusion[self.frame_index]),
+            "clip_seed": int(self.clip.meta.get("seed", 0)),
+        }
+
+    # Gymnasium API -------------------------------------------------------------------
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        super().reset(seed=seed)
+        options = options or {}
+        if "clip_seed" in options:
+            clip_seed = int(options["clip_seed"])
+        else:
+            clip_seed = self.clip_seeds[int(self.np_random.integers(len(self.clip_seeds)))]
+        clip = self._load(clip_seed)
+        if clip is not self.clip:
+            self.clip, self._frames = clip, self._observed_frames(clip)
+        mujoco.mj_resetData(self.model, self.data)
+        truth = self.clip.truth
+        start = truth.angles[0] if truth is not None else np.zeros(self.arm.n_links)
+        scale = self.reset_noise_scale
+        noise = self.np_random.uniform(-scale, scale, size=start.shape)
+        self.data.qpos[:] = np.clip(start + noise, self._joint_low, self._joint_high)
+        if self.control == "position":
+            self.data.ctrl[:] = self.data.qpos  # the servo holds the start pose
+        mujoco.mj_forward(self.model, self.data)
+        self.frame_index = 0
+        return self._obs(), self._info()
+
+    def step(
+        self, action: np.ndarray
+    ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        if self.frame_index is None:
+            raise RuntimeError("call reset() before step()")
+        if self.frame_index >= len(self.clip) - 1:
+            raise RuntimeError("the clip has ended (truncated=True was returned); call reset()")
+        a = np.asarray(action, dtype=np.float64)
+        if a.shape != self.action_space.shape:
+            raise ValueError(
+                f"action must have shape {self.action_space.shape}, got {a.shape}: {action!r}"
+            )
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"action must be finite numbers in [-1, 1], got {a.tolist()}")
+        a = np.clip(a, -1.0, 1.0)
+        self.data.ctrl[:] = self.action_to_command(a)
+        mujoco.mj_step(self.model, self.data, nstep=self.n_substeps)
+        self.frame_index += 1
+
+        info = self._info()
+        error = wrap_angle(self.data.qpos - info["target_angles"])
+        reward_tracking = -self.tracking_weight * float(np.sum(error**2))
+        reward_ctrl = -self.ctrl_cost_weight * float(np.sum(a**2))
+        info["reward_tracking"], info["reward_ctrl"] = reward_tracking, reward_ctrl
+        truncated = self.frame_index == len(self.clip) - 1
+        return self._obs(), reward_tracking + reward_ctrl, False, truncated, info
+
+    def render(self) -> np.ndarray | None:
+        """(H, 2W, 3) uint8: the video frame (left) beside the robot (right), same size."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without render_mode='rgb_array'; returning None")
+            return None
+        if self._renderer is None:
+            self._renderer = OffscreenRenderer(self.model, self.clip.height, self.clip.width)
+        robot, _ = self._renderer.render(self.data, self.model.camera("robot").id)
+        frame = self._frames[self.frame_index or 0]
+        return np.concatenate([frame, robot], axis=1)
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None

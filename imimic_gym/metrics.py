@@ -1,0 +1,52 @@
+"""Tracking metrics shared by the demo, the benchmarks and the evaluation suite.
+
+All angle inputs are radians, shaped (T,) or (T, n); outputs are in degrees or frames.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["angle_rmse_deg", "lag_frames", "max_error_deg", "wrap_angle"]
+
+
+def wrap_angle(angle: np.ndarray) -> np.ndarray:
+    """Wrap radians into [-pi, pi), so 359 degrees of error counts as -1 degree."""
+    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
+
+
+def angle_rmse_deg(estimate: np.ndarray, truth: np.ndarray) -> float:
+    """Root-mean-square wrapped angle error over all frames and joints, in degrees."""
+    error = wrap_angle(np.asarray(estimate) - np.asarray(truth))
+    return float(np.degrees(np.sqrt(np.mean(error**2))))
+
+
+def max_error_deg(estimate: np.ndarray, truth: np.ndarray) -> float:
+    """Largest absolute wrapped angle error over all frames and joints, in degrees."""
+    return float(np.degrees(np.max(np.abs(wrap_angle(np.asarray(estimate) - np.asarray(truth))))))
+
+
+def lag_frames(truth: np.ndarray, follower: np.ndarray, max_lag: int = 30) -> int:
+    """Frames by which ``follower`` trails ``truth``: the peak of their cross-correlation.
+
+    Both signals lose their means; the correlation at each shift k in [-max_lag, max_lag]
+    is normalised by the overlap, summed over joints, and the best k returned (positive:
+    the follower is late). A flat signal (no motion) has no defined lag: returns 0.
+    """
+    a = np.asarray(truth, dtype=np.float64).reshape(len(truth), -1)
+    b = np.asarray(follower, dtype=np.float64).reshape(len(follower), -1)
+    if a.shape != b.shape:
+        raise ValueError(
+            f"truth and follower must have the same shape, got {a.shape} and {b.shape}"
+        )
+    a, b = a - a.mean(axis=0), b - b.mean(axis=0)
+    max_lag = min(max_lag, len(a) - 2)
+    if max_lag < 0 or not (np.any(a) and np.any(b)):
+        return 0
+    best_lag, best = 0, -np.inf
+    for k in range(-max_lag, max_lag + 1):
+        x, y = (a[: len(a) - k], b[k:]) if k >= 0 else (a[-k:], b[: len(b) + k])
+        score = float(np.sum(x * y)) / len(x)
+        if score > best + 1e-12:
+            best_lag, best = k, score
+    return best_lag

@@ -1,0 +1,47 @@
+import json
+import subprocess
+import sys
+
+import cv2
+import pytest
+
+from imimic_gym.cli import main
+
+
+def test_demo_writes_video_plot_and_metrics(tmp_path, capsys) -> None:
+    out = tmp_path / "demo"
+    assert main(["demo", "--out", str(out), "--frames", "60"]) == 0
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["scenario"] == "exp2-servo"
+    assert metrics["estimator"] == "oracle" and metrics["controller"] == "oracle"
+    assert metrics["rmse_deg"] < 2.0 and metrics["max_error_deg"] >= metrics["rmse_deg"]
+    assert isinstance(metrics["lag_frames"], int)
+    video = cv2.VideoCapture(str(out / "demo.mp4"))
+    try:
+        assert int(video.get(cv2.CAP_PROP_FRAME_COUNT)) == 60
+        assert int(video.get(cv2.CAP_PROP_FRAME_WIDTH)) == 640
+    finally:
+        video.release()
+    assert cv2.imread(str(out / "angles.png")) is not None
+    assert "oracle" in capsys.readouterr().out
+
+
+def test_clip_writes_mp4_and_truth(tmp_path) -> None:
+    assert main(["clip", "--scenario", "chain-2", "--frames", "5", "--out", str(tmp_path)]) == 0
+    truth = json.loads((tmp_path / "chain-2-seed0.json").read_text())
+    assert len(truth["angles"]) == 5 and len(truth["angles"][0]) == 2
+    assert truth["keypoint_names"] == ["shoulder", "elbow", "wrist", "hand_tip"]
+    assert (tmp_path / "chain-2-seed0.mp4").stat().st_size > 1000
+
+
+def test_unknown_scenario_is_refused_with_the_choices(capsys) -> None:
+    with pytest.raises(SystemExit):
+        main(["demo", "--scenario", "exp9"])
+    assert "exp2-servo" in capsys.readouterr().err
+
+
+def test_help_explains_each_command() -> None:
+    result = subprocess.run([sys.executable, "-m", "imimic_gym.cli", "--help"],
+                            capture_output=True, text=True, check=True)
+    for command in ("demo", "clip", "bench", "scenarios"):
+        assert command in result.stdout

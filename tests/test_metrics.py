@@ -1,0 +1,28 @@
+import numpy as np
+import pytest
+
+from imimic_gym.metrics import angle_rmse_deg, lag_frames, max_error_deg, wrap_angle
+
+
+def test_wrap_angle_takes_the_short_way_round() -> None:
+    assert np.degrees(wrap_angle(np.radians(359.0))) == pytest.approx(-1.0)
+    assert np.degrees(wrap_angle(np.radians(-181.0))) == pytest.approx(179.0)
+
+
+def test_rmse_and_max_error_in_degrees() -> None:
+    truth = np.zeros((4, 1))
+    estimate = np.radians([[1.0], [-1.0], [3.0], [-3.0]])
+    assert angle_rmse_deg(estimate, truth) == pytest.approx(np.sqrt(5.0))
+    assert max_error_deg(estimate, truth) == pytest.approx(3.0)
+
+
+@pytest.mark.parametrize("shift", [0, 1, 4, -2])
+def test_lag_of_a_shifted_signal_is_the_shift(shift: int) -> None:
+    t = np.arange(200) / 30.0
+    truth = np.sin(2 * np.pi * 0.4 * t)
+    follower = np.sin(2 * np.pi * 0.4 * (t - shift / 30.0))
+    assert lag_frames(truth, follower) == shift
+
+
+def test_lag_of_a_still_signal_is_zero() -> None:
+    assert lag_frames(np.ones(50), np.ones(50)) == 0
