@@ -43,12 +43,14 @@ def run_episode(
     controller: Callable[[dict[str, Any]], np.ndarray],
     seed: int | None = None,
     record: bool = False,
+    options: dict[str, Any] | None = None,
 ) -> Trajectory:
-    """``obs, info = env.reset(seed=seed)``, then step ``controller(obs)`` to the clip's end.
+    """``obs, info = env.reset(seed=seed, options=options)``, then step ``controller(obs)``
+    to the clip's end. ``record`` keeps ``env.render()`` of every frame.
 
     The first frame, before any action, is part of the trajectory (reward 0).
     """
-    obs, info = env.reset(seed=seed)
+    obs, info = env.reset(seed=seed, options=options)
     if hasattr(controller, "reset"):
         controller.reset()
     index, target, robot, reward, occlusion, frames = [], [], [], [], [], []

@@ -208,3 +208,20 @@ def test_arguments_table_matches_the_signature() -> None:
     assert set(table) == set(params)
     for name, default in params.items():
         assert ast.literal_eval(table[name]) == default, name
+
+
+def test_a_clip_object_can_be_the_scenario() -> None:
+    from imimic_gym.clips import load_clip
+    from imimic_gym.clips.scenarios import get_scenario
+
+    clip = load_clip(get_scenario("chain-2", n_frames=8, seed=3), progress=False)
+    env = gym.make("ImitateVideo-v0", scenario=clip, width=160, height=120)
+    obs, info = env.reset(seed=0)
+    assert obs["frame"].shape == (120, 160, 3) and obs["qpos"].shape == (2,)
+    assert info["clip_seed"] == 3
+    np.testing.assert_array_equal(info["target_angles"], clip.truth.angles[0])
+    # Resizing scales the truth keypoints with the frames.
+    resized = env.unwrapped.clip.truth.keypoints
+    np.testing.assert_allclose(resized, clip.truth.keypoints * 0.5, rtol=1e-6)
+    with pytest.raises(ValueError, match="n_links=3 but the clip has 2 links"):
+        gym.make("ImitateVideo-v0", scenario=clip, n_links=3)

@@ -1,0 +1,11 @@
+#!/usr/bin/env bash
+# Reruns every benchmark quoted in benchmarks/RESULTS.md and the README.
+#   bash benchmarks/run_all.sh        (or: make bench)
+# Results land in benchmarks/results/*.json; copy the tables into RESULTS.md.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BIN=${BIN:-.venv/bin}
+mkdir -p benchmarks/results
+"$BIN/imimic" bench env --json benchmarks/results/env.json
+"$BIN/python" benchmarks/oracle_tracking.py --json benchmarks/results/oracle.json
+"$BIN/python" benchmarks/step_profile.py --json benchmarks/results/step_profile.json
