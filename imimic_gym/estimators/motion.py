@@ -1,0 +1,76 @@
+"""Shared by every estimator: the path estimator (paper §3, layer 4a) and joint torques.
+
+An estimator measures a joint angle per frame; this turns the series into angular
+velocity and acceleration, and those into the torque the robot needs.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import mujoco
+import numpy as np
+
+from imimic_gym.arms import joint_inertia
+from imimic_gym.metrics import wrap_angle
+
+__all__ = ["PathEstimator", "TorqueModel"]
+
+
+class PathEstimator:
+    """DON layer 4a, path estimator, paper Eq. (velAcc): v_p = s_p - s_{p-1}, a_p = v_p - v_{p-1}.
+
+    The location s_p of the link is its angle about the pivot (rad). The paper divides the
+    tip's displacement by the skeleton length r to get omega = v / r; the tangential
+    displacement at radius r is r * d(angle), so the wrapped angle difference is the same
+    quantity without the small-angle error. Per frame, times fps (fps^2) gives rad/s
+    (rad/s^2).
+
+    Keeps the last ``window`` samples of V and A (the sets the prediction layer merges).
+    """
+
+    def __init__(self, n_joints: int, fps: float, window: int = 10) -> None:
+        self.n, self.fps, self.window = n_joints, float(fps), window
+        self.reset()
+
+    def reset(self) -> None:
+        self.location: np.ndarray | None = None
+        self.V: deque[np.ndarray] = deque(maxlen=self.window)
+        self.A: deque[np.ndarray] = deque(maxlen=self.window)
+
+    def update(self, location: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Add this frame's location (n,) rad; return (v, a) per frame, rad/frame(^2)."""
+        v = np.zeros(self.n) if self.location is None else wrap_angle(location - self.location)
+        a = v - self.V[-1] if self.V else np.zeros(self.n)
+        self.location = np.asarray(location, dtype=np.float64).copy()
+        self.V.append(v)
+        self.A.append(a)
+        return v, a
+
+    def omega(self) -> np.ndarray:
+        """Angular velocity, rad/s: the mean of the last two v, centred on the frame."""
+        recent = list(self.V)[-2:] or [np.zeros(self.n)]
+        return np.mean(recent, axis=0) * self.fps
+
+    def alpha(self) -> np.ndarray:
+        """Angular acceleration, rad/s^2: the mean of the last three a."""
+        recent = list(self.A)[-3:] or [np.zeros(self.n)]
+        return np.mean(recent, axis=0) * self.fps**2
+
+
+class TorqueModel:
+    """Torque (N m) the robot needs for a motion: the paper's tau = I alpha for one link,
+    with I the joint's inertia from the robot's MuJoCo model; the model's inverse dynamics
+    (``mj_inverse``, so coupling, gravity and damping count) for two or more links."""
+
+    def __init__(self, model: mujoco.MjModel) -> None:
+        self.model = model
+        self.data = mujoco.MjData(model)
+        self.inertia = joint_inertia(model)
+
+    def __call__(self, angles: np.ndarray, omega: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+        if self.model.nv == 1:
+            return self.inertia * alpha
+        self.data.qpos[:], self.data.qvel[:], self.data.qacc[:] = angles, omega, alpha
+        mujoco.mj_inverse(self.model, self.data)
+        return self.data.qfrc_inverse.copy()

@@ -1,0 +1,60 @@
+"""`Estimate` and the `Estimator` protocol: what every vision estimator produces."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+__all__ = ["Estimate", "Estimator"]
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """One frame's estimate of the demonstrator's arm. n joints.
+
+    Attributes:
+        angles: (n,) joint angles, rad (DESIGN.md convention).
+        omega: (n,) angular velocities, rad/s.
+        alpha: (n,) angular accelerations, rad/s^2.
+        torque: (n,) joint torques the robot needs for this motion, N m.
+        trust: the trust factor eta in [0, 1] (1 = nothing to distrust).
+        predicted: True when the prediction layer, not the current frame, gave the angles.
+        keypoints: (n + 1, 2) pixel coordinates (x, y) of the pivot and link ends, or None.
+    """
+
+    angles: np.ndarray
+    omega: np.ndarray
+    alpha: np.ndarray
+    torque: np.ndarray
+    trust: float
+    predicted: bool = False
+    keypoints: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        n = np.asarray(self.angles).shape
+        for name in ("angles", "omega", "alpha", "torque"):
+            value = np.asarray(getattr(self, name), dtype=np.float64)
+            if value.shape != n or not np.all(np.isfinite(value)):
+                raise ValueError(f"Estimate.{name} must be finite with shape {n}, got {value}")
+            object.__setattr__(self, name, value)
+        if not 0.0 <= self.trust <= 1.0:
+            raise ValueError(f"Estimate.trust must be in [0, 1], got {self.trust}")
+
+    def as_vector(self) -> np.ndarray:
+        """(4n + 2,) float32: angles, omega, alpha, torque, trust, predicted."""
+        return np.concatenate([
+            self.angles, self.omega, self.alpha, self.torque,
+            [self.trust, float(self.predicted)],
+        ]).astype(np.float32)
+
+
+class Estimator(Protocol):
+    """Turns a stream of frames into estimates. Knows nothing about environments."""
+
+    def reset(self) -> None:
+        """Forget all frames: the next ``update`` starts a new clip."""
+
+    def update(self, frame: np.ndarray) -> Estimate:
+        """Take the next (H, W, 3) uint8 RGB frame and return the estimate for it."""

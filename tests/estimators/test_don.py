@@ -1,0 +1,129 @@
+"""DON's layers on hand-built frame sequences with known answers, and the never-NaN cases."""
+
+import math
+import warnings
+
+import cv2
+import numpy as np
+import pytest
+
+from imimic_gym.estimators.don import DON, FrameShapeError, SlidingExtrema, component_lines
+
+H, W, FPS = 240, 320, 30.0
+PIVOT = np.array([160.0, 150.0])
+
+
+def bar_frame(angle: float, length: float = 100.0, occluder: tuple | None = None) -> np.ndarray:
+    """A white bar on black turned to ``angle`` (rad, CCW, image up) about PIVOT; an
+    optional black rectangle (x0, y0, x1, y1) drawn over it."""
+    frame = np.zeros((H, W, 3), dtype=np.uint8)
+    tip = PIVOT + length * np.array([math.cos(angle), -math.sin(angle)])
+    cv2.line(frame, tuple(PIVOT.astype(int)), tuple(np.rint(tip).astype(int)),
+             (255, 255, 255), thickness=8)
+    if occluder is not None:
+        x0, y0, x1, y1 = occluder
+        frame[y0:y1, x0:x1] = 0
+    return frame
+
+
+def sweep(rate_deg_per_frame: float, frames: int, start_deg: float = 20.0) -> list[float]:
+    """Back-and-forth between 20 and 160 degrees at a constant rate."""
+    angles, angle, step = [], start_deg, rate_deg_per_frame
+    for _ in range(frames):
+        angles.append(math.radians(angle))
+        if not 20 <= angle + step <= 160:
+            step = -step
+        angle += step
+    return angles
+
+
+def test_a_bar_turning_at_a_known_rate_gives_that_angle_and_omega() -> None:
+    rate = 3.0  # degrees per frame = 90 deg/s at 30 fps
+    angles = sweep(rate, 80)
+    don = DON(fps=FPS)
+    estimates = don.run(bar_frame(a) for a in angles)
+    steady = [
+        (e, a) for i, (e, a) in enumerate(zip(estimates, angles, strict=True))
+        if i > 30 and abs(math.degrees(a) - 90) < 50  # clear of the turning points
+    ]
+    errors = [abs(math.degrees(e.angles[0] - a)) for e, a in steady]
+    assert max(errors) < 2.0 and np.mean(errors) < 0.8
+    omegas = [abs(math.degrees(e.omega[0])) for e, _ in steady]
+    assert np.median(omegas) == pytest.approx(rate * FPS, rel=0.05)
+    pivot = don._pivot() * don.scale
+    assert np.hypot(*(pivot - PIVOT)) < 3.0
+
+
+def test_a_known_pivot_is_used_from_the_first_moving_frame() -> None:
+    angles = sweep(3.0, 20, start_deg=60)
+    don = DON(fps=FPS, pivot=tuple(PIVOT))
+    estimates = don.run(bar_frame(a) for a in angles)
+    assert abs(math.degrees(estimates[5].angles[0] - angles[5])) < 2.0
+
+
+def test_reference_direction_is_subtracted() -> None:
+    angles = sweep(3.0, 40, start_deg=60)
+    plain = DON(fps=FPS, pivot=tuple(PIVOT)).run(bar_frame(a) for a in angles)
+    shifted = DON(fps=FPS, pivot=tuple(PIVOT), reference_direction=math.pi / 2).run(
+        bar_frame(a) for a in angles)
+    assert math.degrees(plain[-1].angles[0] - shifted[-1].angles[0]) == pytest.approx(90.0)
+
+
+def test_still_black_and_short_inputs_give_defined_estimates() -> None:
+    black = np.zeros((H, W, 3), dtype=np.uint8)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for frames in ([black] * 15, [black] * 3, [bar_frame(1.0)] * 12, [black]):
+            for estimate in DON(fps=FPS).run(frames):
+                values = np.concatenate([estimate.angles, estimate.omega, estimate.alpha,
+                                         estimate.torque, [estimate.trust]])
+                assert np.all(np.isfinite(values))
+                assert estimate.trust == 1.0 and not estimate.predicted
+
+
+def test_motion_stopping_holds_the_last_angle() -> None:
+    angles = sweep(3.0, 40, start_deg=40)
+    frames = [bar_frame(a) for a in angles] + [bar_frame(angles[-1])] * 10
+    estimates = DON(fps=FPS).run(frames)
+    assert math.degrees(estimates[-1].angles[0]) == pytest.approx(
+        math.degrees(estimates[-10].angles[0]), abs=2.0)
+    assert estimates[-1].omega[0] == 0.0
+
+
+@pytest.mark.parametrize(
+    ("frame", "message"),
+    [(np.zeros((H, W), dtype=np.uint8), r"\(H, W, 3\) uint8 RGB frames, got \(240, 320\)"),
+     (np.zeros((H, W, 3), dtype=np.float32), r"got \(240, 320, 3\) float32"),
+     ("not a frame", "got str")],
+)
+def test_wrong_frames_are_named(frame, message: str) -> None:
+    with pytest.raises(FrameShapeError, match=message):
+        DON().update(frame)
+
+
+def test_a_frame_of_another_size_mid_clip_is_refused() -> None:
+    don = DON()
+    don.update(np.zeros((H, W, 3), dtype=np.uint8))
+    with pytest.raises(FrameShapeError, match=r"frame is \(120, 160, 3\), but this clip's "
+                                               r"frames are \(240, 320, 3\)"):
+        don.update(np.zeros((120, 160, 3), dtype=np.uint8))
+
+
+def test_sliding_extrema_equal_brute_force() -> None:
+    rng = np.random.default_rng(0)
+    images = [rng.integers(0, 256, (6, 7, 3), dtype=np.uint8) for _ in range(37)]
+    window = SlidingExtrema(5)
+    for t, image in enumerate(images):
+        window.push(image)
+        recent = np.stack(images[max(0, t - 4): t + 1])
+        low, high = window.extrema()
+        assert np.array_equal(low, recent.min(axis=0)) and np.array_equal(high, recent.max(axis=0))
+
+
+def test_component_lines_find_a_drawn_line() -> None:
+    mask = np.zeros((100, 100), dtype=bool)
+    cv2.line(mask.view(np.uint8), (10, 80), (70, 20), 1, thickness=3)
+    (line,) = component_lines(mask, min_area=5)
+    direction = line[2:4] * np.sign(line[2])
+    assert np.allclose(direction, [math.sqrt(0.5), -math.sqrt(0.5)], atol=0.02)
+    assert line[5] > 5  # elongated
