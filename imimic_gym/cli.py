@@ -9,8 +9,7 @@ from pathlib import Path
 
 import imimic_gym  # noqa: F401  (registers the env, sets headless GL)
 
-ESTIMATORS = ("oracle",)
-CONTROLLERS = ("oracle",)
+ESTIMATORS = ("oracle", "don")
 
 
 def _print_table(rows: dict[str, object]) -> None:
@@ -24,31 +23,40 @@ def cmd_demo(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
     from imimic_gym.clips.video import write_video
-    from imimic_gym.controllers import OracleController
+    from imimic_gym.controllers import EstimateTarget, OracleController, PDController
     from imimic_gym.plots import plot_tracking
     from imimic_gym.rollout import run_episode
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     print(f"imimic demo: scenario {args.scenario}, seed {args.seed}, control {args.control}")
-    print("  estimator: oracle (the true angles). No vision estimator is built yet, so the "
-          "robot reads the ground truth: this shows the control loop's upper bound.")
     kwargs = {"n_frames": args.frames} if args.frames else {}
     env = gym.make("ImitateVideo-v0", scenario=args.scenario, control=args.control,
                    clip_seeds=(args.seed,), render_mode="rgb_array", **kwargs)
-    trajectory = run_episode(env, OracleController(env), seed=args.seed, record=True)
+    if args.estimator == "oracle":
+        print("  estimator: oracle. The robot reads the true angles: this shows the control "
+              "loop's upper bound, not vision. Try --estimator don.")
+        controller = OracleController(env)
+    else:
+        from imimic_gym.wrappers import DONObservation
+
+        print("  estimator: DON (frame differences, no labels); controller: PD on its angle")
+        env = DONObservation(env, keep_frame=False)
+        controller = PDController(env, EstimateTarget(env))
+    trajectory = run_episode(env, controller, seed=args.seed, record=True)
     fps = env.unwrapped.clip.fps
     env.close()
     write_video(out / "demo.mp4", trajectory.frames, fps)
-    title = f"{args.scenario}: human (solid) vs robot (dashed), oracle + {args.control}"
+    title = (f"{args.scenario}: human (solid) vs robot (dashed), "
+             f"{args.estimator} + {args.control}")
     plot_tracking(trajectory, out / "angles.png", title=title)
     metrics = {
         **trajectory.metrics(),
         "scenario": args.scenario,
         "seed": args.seed,
-        "controller": "oracle",
+        "controller": "oracle" if args.estimator == "oracle" else "pd",
         "control": args.control,
-        "estimator": "oracle",
+        "estimator": args.estimator,
     }
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     print(f"wrote {out / 'demo.mp4'}, {out / 'angles.png'}, {out / 'metrics.json'}")
@@ -144,6 +152,10 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--seed", type=int, default=0, help="clip seed (default: %(default)s)")
     demo.add_argument("--control", default="position", choices=("position", "velocity", "torque"),
                       help="robot actuation (default: %(default)s, the paper's servo)")
+    demo.add_argument("--estimator", default="oracle", choices=ESTIMATORS,
+                      help="where the robot's targets come from: the true angles (oracle, "
+                           "the upper bound) or DON on the video (one-link scenarios); "
+                           "default: %(default)s")
     demo.add_argument("--frames", type=int, default=None,
                       help="clip length in frames (default: the scenario's, 150 = 5 s)")
     demo.add_argument("--out", default="demo_out", help="output folder (default: %(default)s)")

@@ -45,3 +45,12 @@ def test_help_explains_each_command() -> None:
                             capture_output=True, text=True, check=True)
     for command in ("demo", "clip", "bench", "scenarios"):
         assert command in result.stdout
+
+
+def test_demo_with_don_reports_it(tmp_path) -> None:
+    out = tmp_path / "don"
+    assert main(["demo", "--estimator", "don", "--out", str(out), "--frames", "90"]) == 0
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["estimator"] == "don" and metrics["controller"] == "pd"
+    # Vision in the loop: worse than the oracle's 2 degrees, far better than standing still.
+    assert 0.3 < metrics["rmse_deg"] < 8.0

@@ -1,8 +1,9 @@
 from imimic_gym.controllers.scripted import (
+    EstimateTarget,
     OracleController,
     PDController,
     TargetSource,
     TruthTarget,
 )
 
-__all__ = ["OracleController", "PDController", "TargetSource", "TruthTarget"]
+__all__ = ["EstimateTarget", "OracleController", "PDController", "TargetSource", "TruthTarget"]

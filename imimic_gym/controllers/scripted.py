@@ -15,7 +15,7 @@ import numpy as np
 
 from imimic_gym.metrics import wrap_angle
 
-__all__ = ["OracleController", "PDController", "TargetSource", "TruthTarget"]
+__all__ = ["EstimateTarget", "OracleController", "PDController", "TargetSource", "TruthTarget"]
 
 
 class TargetSource(Protocol):
@@ -42,6 +42,29 @@ class TruthTarget:
 
     def __call__(self, obs: dict[str, Any]) -> np.ndarray:
         return self.env.target_angles(self.env.frame_index + self.lookahead)
+
+
+class EstimateTarget:
+    """Targets from an estimator wrapper's ``obs["estimate"]``, led by ``lead_frames``.
+
+    The estimate describes the frame the env shows; the reward compares the robot with
+    the next one. Leading the angle by omega / fps (one frame) removes that frame of lag.
+    """
+
+    def __init__(self, env: gym.Env, lead_frames: float = 1.0) -> None:
+        from imimic_gym.wrappers.estimator import estimate_fields
+
+        inner = env.unwrapped
+        self.fields = estimate_fields(inner.arm.n_links)
+        self.lead_s = lead_frames / float(inner.clip.fps)
+
+    def reset(self) -> None:
+        """Stateless: everything it needs is in the observation."""
+
+    def __call__(self, obs: dict[str, Any]) -> np.ndarray:
+        estimate = obs["estimate"]
+        angles = estimate[self.fields["angles"]].astype(np.float64)
+        return angles + self.lead_s * estimate[self.fields["omega"]]
 
 
 class PDController:

@@ -206,6 +206,9 @@ class DON:
             (measured: exp2-servo 0.5 -> 1.5 degrees at 0.3). eta is still computed and
             reported in every estimate.
         robot: a MuJoCo model of the robot, for torques; None gives zero torque.
+        joint_range: the joint's (low, high) limits in rad, if known. Before the pivot is
+            found, a moving region's axis gives the link's direction up to 180 degrees;
+            a range narrower than that says which way it points.
         min_area: fewest moving pixels (working resolution) that count as motion.
     """
 
@@ -223,6 +226,7 @@ class DON:
         trust_threshold: float = 0.0,
         robot: mujoco.MjModel | None = None,
         min_area: int = 12,
+        joint_range: tuple[float, float] | None = None,
     ) -> None:
         if window < 2:
             raise ValueError(f"window must be at least 2 frames, got {window}")
@@ -234,6 +238,7 @@ class DON:
         self.known_pivot = None if pivot is None else np.asarray(pivot, dtype=np.float64)
         self.trust_threshold, self.min_area = trust_threshold, min_area
         self.torque_model = TorqueModel(robot) if robot is not None else None
+        self.joint_range = joint_range
         self.reset()
 
     def reset(self) -> None:
@@ -250,7 +255,11 @@ class DON:
         self.measured: float | None = None  # the last angle measured, not predicted
         self.predicting_for = 0
         self.lost_for = 0
-        self.estimate = self._estimate(0.0, 0.0, 0.0, trust=1.0, predicted=False)
+        # Before the arm has moved DON has seen nothing: the middle of the joint's range
+        # (if known) is the guess least far from anywhere the arm can be.
+        start = (self.reference_direction if self.joint_range is None
+                 else self.reference_direction + sum(self.joint_range) / 2)
+        self.estimate = self._estimate(start, 0.0, 0.0, trust=1.0, predicted=False)
         self.last_mask: np.ndarray | None = None
 
     # Layer 1: input -------------------------------------------------------------------
@@ -393,6 +402,24 @@ class DON:
                         trust=float(np.clip(trust, 0.0, 1.0)), predicted=predicted,
                         keypoints=keypoints)
 
+    def _before_pivot(self, lines: np.ndarray) -> Estimate:
+        """Until the pivot is found: the longest elongated region's axis, pointed by the
+        joint range (if known); else hold."""
+        if self.joint_range is None or len(lines) == 0:
+            return self.estimate
+        candidates = lines[(lines[:, 5] > 2.0) & (lines[:, 4] > 2.5)]
+        if len(candidates) == 0:
+            return self.estimate
+        line = candidates[np.argmax(candidates[:, 4] * candidates[:, 6])]
+        axis = math.atan2(-line[3], line[2])  # CCW, image up
+        lo, hi = self.joint_range
+        middle = self.reference_direction + (lo + hi) / 2
+        if abs(wrap_angle(axis - middle)) > math.pi / 2:
+            axis += math.pi
+        self.estimate = self._estimate(float(wrap_angle(axis)), 0.0, 0.0, trust=1.0,
+                                       predicted=False)
+        return self.estimate
+
     def update(self, frame: np.ndarray) -> Estimate:
         """Take the next (H, W, 3) uint8 RGB frame; return the estimate for it."""
         image = self._prepare(frame)
@@ -409,9 +436,8 @@ class DON:
         if area < self.min_area:
             self.areas.append(None)
             # No motion: hold the last estimate (nothing moved, nothing to distrust).
-            self.estimate = self._estimate(
-                self.angle if self.angle is not None else self.reference_direction,
-                0.0, 0.0, trust=1.0, predicted=False)
+            if self.angle is not None:
+                self.estimate = self._estimate(self.angle, 0.0, 0.0, trust=1.0, predicted=False)
             return self.estimate
 
         lines = component_lines(mask, self.min_area)
@@ -421,7 +447,7 @@ class DON:
                     self.pivots.add_line(line)
         pivot = self._pivot()
         if pivot is None:
-            return self.estimate
+            return self._before_pivot(lines)
         if self._radius_pivot is None or np.hypot(*(pivot - self._radius_pivot)) > 2.0:
             self.radius, self._radius_pivot = None, pivot  # r was measured from elsewhere
 

@@ -1,0 +1,73 @@
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env as gym_check_env
+
+import imimic_gym  # noqa: F401
+from imimic_gym.controllers import EstimateTarget, PDController
+from imimic_gym.metrics import angle_rmse_deg
+from imimic_gym.rollout import run_episode
+from imimic_gym.wrappers import DONObservation, EstimatorObservation, estimate_fields
+
+
+def servo_env(**kwargs) -> gym.Env:
+    return gym.make("ImitateVideo-v0", scenario="exp2-servo", clip_seeds=(100,), **kwargs)
+
+
+def test_don_wrapped_env_passes_the_checkers_without_warnings() -> None:
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    env = DONObservation(servo_env(n_frames=40), keep_frame=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        # Checking a wrapper always draws this one notice; any other warning fails.
+        warnings.filterwarnings("ignore", message=".*different from the unwrapped version")
+        gym_check_env(env)
+        sb3_check_env(env, warn=True)
+
+
+def test_keep_frame_decides_whether_pixels_stay() -> None:
+    kept = DONObservation(servo_env(n_frames=10), keep_frame=True)
+    dropped = DONObservation(servo_env(n_frames=10), keep_frame=False)
+    assert "frame" in kept.reset(seed=0)[0]
+    obs, _ = dropped.reset(seed=0)
+    assert set(obs) == {"qpos", "qvel", "estimate"}
+    assert obs["estimate"].shape == (6,) and obs["estimate"].dtype == np.float32
+
+
+def test_estimate_follows_the_servo_through_the_env() -> None:
+    env = DONObservation(servo_env(), keep_frame=False)
+    fields = estimate_fields(1)
+    obs, info = env.reset(seed=0)
+    estimated, truth = [], []
+    done = False
+    while not done:
+        obs, _, terminated, truncated, info = env.step(np.zeros(1, dtype=np.float32))
+        estimated.append(obs["estimate"][fields["angles"]])
+        truth.append(info["target_angles"])
+        done = terminated or truncated
+    # After half a second of warm-up (DON needs motion to find the pivot).
+    assert angle_rmse_deg(np.array(estimated)[15:], np.array(truth)[15:]) < 3.0
+
+
+def test_pd_on_don_drives_the_robot_close_to_the_human() -> None:
+    env = DONObservation(servo_env(), keep_frame=False)
+    trajectory = run_episode(env, PDController(env, EstimateTarget(env)), seed=0)
+    assert angle_rmse_deg(trajectory.robot[30:], trajectory.target[30:]) < 4.0
+
+
+def test_wrapper_refuses_an_env_without_frames() -> None:
+    class NoFrames(gym.Env):
+        observation_space = gym.spaces.Box(-1, 1, (3,))
+        action_space = gym.spaces.Box(-1, 1, (1,))
+
+    with pytest.raises(TypeError, match="needs a Dict observation space with a 'frame' key"):
+        EstimatorObservation(NoFrames(), estimator=None)  # type: ignore[arg-type]
+
+
+def test_don_wrapper_refuses_more_than_one_link_for_now() -> None:
+    with pytest.raises(ValueError, match="DON handles one moving link so far; this env's arm "
+                                         "has 2"):
+        DONObservation(gym.make("ImitateVideo-v0", scenario="chain-2", n_frames=5))
