@@ -16,7 +16,7 @@ from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario, scenario_names
 from imimic_gym.clips.synthetic import render_clip
 
-__all__ = ["bench_env", "bench_render", "machine"]
+__all__ = ["bench_don", "bench_env", "bench_render", "don_window_and_lighting", "machine"]
 
 
 def machine() -> dict[str, Any]:
@@ -84,3 +84,99 @@ def bench_render(n_frames: int = 150, height: int = 240, width: int = 320) -> di
         render_clip(spec, progress=False)
         fps[name] = n_frames / (time.perf_counter() - start)
     return fps
+
+
+PAPER_RESOLUTIONS = ((240, 320), (480, 640), (720, 960), (960, 1280))
+
+
+def _per_frame_ms(run, frames: np.ndarray) -> float:
+    start = time.perf_counter()
+    run(frames)
+    return (time.perf_counter() - start) / len(frames) * 1e3
+
+
+def bench_don(frames: int = 90, repeats: int = 3,
+              resolutions=PAPER_RESOLUTIONS) -> dict[str, Any]:
+    """Per-frame ms of DON, the MOG2 and CamShift estimators, and raw OpenCV MOG2
+    (``apply`` on the full frame, the paper's comparison), on the same rendered frames of
+    the default scenario at each resolution; one OpenCV thread; median of alternating
+    runs. ``ratio_mog2`` = DON / raw MOG2 (the paper: 30 ms / 100 ms = 0.3)."""
+    import cv2
+
+    from imimic_gym.estimators.baselines import CamShiftEstimator, MOG2Estimator
+    from imimic_gym.estimators.don import DON
+
+    cv2.setNumThreads(1)
+
+    def raw_mog2(clip_frames: np.ndarray) -> None:
+        subtractor = cv2.createBackgroundSubtractorMOG2(detectShadows=False)
+        for frame in clip_frames:
+            subtractor.apply(frame)
+
+    runs = {
+        "don": lambda f: DON().run(f),
+        "mog2_estimator": lambda f: MOG2Estimator().run(f),
+        "camshift_estimator": lambda f: CamShiftEstimator().run(f),
+        "mog2_raw": raw_mog2,
+    }
+    rows = []
+    for height, width in resolutions:
+        clip = load_clip(get_scenario("default", height=height, width=width, n_frames=frames),
+                         progress=False)
+        times: dict[str, list[float]] = {name: [] for name in runs}
+        for _ in range(repeats):
+            for name, run in runs.items():
+                times[name].append(_per_frame_ms(run, clip.frames))
+        row = {"resolution": f"{height}x{width}",
+               **{f"{k}_ms": float(np.median(v)) for k, v in times.items()}}
+        row["ratio_mog2"] = row["don_ms"] / row["mog2_raw_ms"]
+        rows.append(row)
+    return {"frames": frames, "repeats": repeats, "opencv_threads": 1, "rows": rows}
+
+
+def don_window_and_lighting(out_prefix: str, frames: int = 90) -> dict[str, Any]:
+    """The paper's Fig. 3: DON's time per frame against the window N (3a) and the area it
+    detects against light intensity (3b), on the default scenario at 240x320; PNGs saved
+    as ``<out_prefix>_window.png`` and ``<out_prefix>_lighting.png``."""
+    import cv2
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from imimic_gym.estimators.don import DON
+
+    cv2.setNumThreads(1)
+    clip = load_clip(get_scenario("default", n_frames=frames), progress=False)
+    windows = [2, 4, 6, 8, 10, 12, 15, 20]
+    window_ms = [float(np.median([_per_frame_ms(lambda f, n=n: DON(window=n).run(f),
+                                                clip.frames) for _ in range(3)]))
+                 for n in windows]
+    lighting = [0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0]
+    areas = []
+    for level in lighting:
+        lit = load_clip(get_scenario("default", n_frames=frames, lighting=level), progress=False)
+        don = DON()
+        total = 0
+        for frame in lit.frames:
+            don.update(frame)
+            total += int(np.count_nonzero(don.last_mask)) if don.last_mask is not None else 0
+        areas.append(total / len(lit) * don.scale**2)  # in input pixels per frame
+    fig, ax = plt.subplots(figsize=(5, 3.5))
+    ax.plot(windows, window_ms, "o-")
+    ax.set(xlabel="frames in the input layer, N", ylabel="ms per frame (240x320, 1 thread)",
+           title="DON: computation time vs N (paper Fig. 3a)")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(f"{out_prefix}_window.png", dpi=110)
+    plt.close(fig)
+    fig, ax = plt.subplots(figsize=(5, 3.5))
+    ax.plot(lighting, areas, "o-")
+    ax.set(xlabel="light intensity", ylabel="moving pixels detected per frame",
+           title="DON: detected area vs light (paper Fig. 3b)")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(f"{out_prefix}_lighting.png", dpi=110)
+    plt.close(fig)
+    return {"window": windows, "window_ms": window_ms, "lighting": lighting,
+            "area_px_per_frame": areas}

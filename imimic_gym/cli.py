@@ -98,6 +98,32 @@ def cmd_clip(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_eval(args: argparse.Namespace) -> int:
+    from imimic_gym.evaluation import evaluate_estimator
+
+    results = []
+    for scenario in args.scenario:
+        for estimator in args.estimator:
+            result = evaluate_estimator(scenario, estimator, episodes=args.episodes,
+                                        first_seed=args.first_seed)
+            results.append(result)
+            mean = result["mean"]
+            occluded = ""
+            if "rmse_occluded_deg_prediction_on" in mean:
+                occluded = (f"  occluded: {mean['rmse_occluded_deg_prediction_off']:.1f} "
+                            f"(prediction off) / {mean['rmse_occluded_deg_prediction_on']:.1f} "
+                            f"(on)")
+            print(f"{scenario:20s} {estimator:9s} rmse {mean['rmse_deg']:6.2f} deg, "
+                  f"settled {mean['rmse_deg_settled']:6.2f} deg, lag "
+                  f"{mean['lag_frames']:5.1f} frames, eta {mean['mean_trust']:.2f}{occluded}",
+                  flush=True)
+    if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(json.dumps(results, indent=2) + "\n")
+        print(f"wrote {args.json}")
+    return 0
+
+
 def cmd_scenarios(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
@@ -112,9 +138,9 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
 def cmd_bench(args: argparse.Namespace) -> int:
     from imimic_gym.bench import bench_env, bench_render, machine
 
-    if args.what != "env":
-        raise SystemExit(f"unknown benchmark {args.what!r}; available: env")
     result: dict[str, object] = {"machine": machine()}
+    if args.what == "don":
+        return _bench_don(args, result)
     print("ImitateVideo-v0 vs Reacher-v5, steps/s (median of alternating runs)...")
     result.update(bench_env(steps=args.steps, repeats=args.repeats))
     print(f"  imitate {result['imitate_steps_per_s']:.0f}  reacher "
@@ -123,6 +149,28 @@ def cmd_bench(args: argparse.Namespace) -> int:
     result["render_frames_per_s"] = bench_render()
     for name, fps in result["render_frames_per_s"].items():
         print(f"  {name:20s} {fps:6.0f}")
+    if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
+        print(f"wrote {args.json}")
+    return 0
+
+
+def _bench_don(args: argparse.Namespace, result: dict[str, object]) -> int:
+    from imimic_gym.bench import bench_don, don_window_and_lighting
+
+    print("DON, baselines and raw OpenCV MOG2, ms per frame on the same frames, 1 thread...")
+    result.update(bench_don())
+    print(f"  {'resolution':11s} {'DON':>7s} {'MOG2 est':>9s} {'CamShift':>9s} "
+          f"{'MOG2 raw':>9s} {'DON/MOG2':>9s}")
+    for row in result["rows"]:
+        print(f"  {row['resolution']:11s} {row['don_ms']:7.2f} {row['mog2_estimator_ms']:9.2f} "
+              f"{row['camshift_estimator_ms']:9.2f} {row['mog2_raw_ms']:9.2f} "
+              f"{row['ratio_mog2']:9.2f}")
+    prefix = str(Path(args.json).with_suffix("")) if args.json else "bench_don"
+    print("time against N and detected area against light (paper Fig. 3)...")
+    result["figure3"] = don_window_and_lighting(prefix)
+    print(f"  wrote {prefix}_window.png and {prefix}_lighting.png")
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
@@ -174,15 +222,37 @@ def build_parser() -> argparse.ArgumentParser:
     clip.add_argument("--out", default="clips_out", help="output folder (default: %(default)s)")
     clip.set_defaults(func=cmd_clip)
 
+    evaluate = sub.add_parser(
+        "eval", help="score estimators against the truth on held-out clips",
+        description="Run each estimator over held-out clips (seeds from --first-seed) of each "
+                    "scenario and print the angle RMSE (all frames, and after 0.5 s of warm-up: "
+                    "frame differencing sees nothing before the arm moves), lag, mean trust "
+                    "factor, and for occluded frames the RMSE with DON's prediction layer off "
+                    "and on.",
+    )
+    evaluate.add_argument("--scenario", nargs="+", default=["exp2-servo"],
+                          choices=[n for n in names if not n.startswith("chain")],
+                          help="one or more one-link scenarios (default: %(default)s)")
+    evaluate.add_argument("--estimator", nargs="+", default=["don"],
+                          choices=("don", "mog2", "camshift"), help="default: %(default)s")
+    evaluate.add_argument("--episodes", type=int, default=3, help="clips per scenario")
+    evaluate.add_argument("--first-seed", type=int, default=1000,
+                          help="first held-out clip seed (default: %(default)s)")
+    evaluate.add_argument("--json", default=None, help="also write the results to this file")
+    evaluate.set_defaults(func=cmd_eval)
+
     scen = sub.add_parser("scenarios", help="list the named scenarios and their settings")
     scen.set_defaults(func=cmd_scenarios)
 
     bench = sub.add_parser(
         "bench", help="speed benchmarks, each against a reference measured in the same run",
         description="env: steps/s of ImitateVideo-v0 and of Gymnasium's Reacher-v5 in the same "
-                    "run, and their ratio; plus clip rendering frames/s per scenario.",
+                    "run, and their ratio; plus clip rendering frames/s per scenario. "
+                    "don: ms per frame of DON, the MOG2 and CamShift estimators and raw "
+                    "OpenCV MOG2 at the paper's four resolutions (its Table 1), and plots of "
+                    "time against N and detected area against light (its Fig. 3).",
     )
-    bench.add_argument("what", choices=("env",), help="which benchmark")
+    bench.add_argument("what", choices=("env", "don"), help="which benchmark")
     bench.add_argument("--json", default=None, help="also write the results to this file")
     bench.add_argument("--steps", type=int, default=3000, help="steps per timed run")
     bench.add_argument("--repeats", type=int, default=5, help="alternating timed runs per env")

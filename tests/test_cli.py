@@ -54,3 +54,14 @@ def test_demo_with_don_reports_it(tmp_path) -> None:
     assert metrics["estimator"] == "don" and metrics["controller"] == "pd"
     # Vision in the loop: worse than the oracle's 2 degrees, far better than standing still.
     assert 0.3 < metrics["rmse_deg"] < 8.0
+
+
+def test_bench_don_reports_every_estimator_per_resolution() -> None:
+    from imimic_gym.bench import bench_don
+
+    result = bench_don(frames=6, repeats=1, resolutions=((60, 80),))
+    (row,) = result["rows"]
+    assert row["resolution"] == "60x80"
+    for key in ("don_ms", "mog2_estimator_ms", "camshift_estimator_ms", "mog2_raw_ms"):
+        assert row[key] > 0
+    assert row["ratio_mog2"] == pytest.approx(row["don_ms"] / row["mog2_raw_ms"])

@@ -7,7 +7,8 @@ import cv2
 import numpy as np
 import pytest
 
-from imimic_gym.estimators.don import DON, FrameShapeError, SlidingExtrema, component_lines
+from imimic_gym.estimators.don import DON, FrameShapeError, SlidingExtrema
+from imimic_gym.estimators.geometry import component_lines
 
 H, W, FPS = 240, 320, 30.0
 PIVOT = np.array([160.0, 150.0])
@@ -50,7 +51,7 @@ def test_a_bar_turning_at_a_known_rate_gives_that_angle_and_omega() -> None:
     assert max(errors) < 2.0 and np.mean(errors) < 0.8
     omegas = [abs(math.degrees(e.omega[0])) for e, _ in steady]
     assert np.median(omegas) == pytest.approx(rate * FPS, rel=0.05)
-    pivot = don._pivot() * don.scale
+    pivot = don.link.pivot() * don.scale
     assert np.hypot(*(pivot - PIVOT)) < 3.0
 
 

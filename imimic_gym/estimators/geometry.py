@@ -1,0 +1,203 @@
+"""Where the moving link is: DON's object regression (a line per moving region), the
+pivot, and the link's direction. Shared by DON and the baselines, so every estimator is
+compared on the same geometry and differs only in how it finds moving pixels.
+
+All coordinates are working-resolution pixels (x right, y down); directions are radians,
+counter-clockwise with the image's y axis pointing up.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+
+import cv2
+import numpy as np
+
+from imimic_gym.metrics import wrap_angle
+
+__all__ = ["LinkTracker", "PivotEstimator", "component_lines"]
+
+
+def component_lines(mask: np.ndarray, min_area: int) -> np.ndarray:
+    """Principal axis of every 8-connected component of ``mask`` with at least
+    ``min_area`` pixels, from its second moments in one vectorised pass.
+
+    Returns (k, 7) float64 rows: centre x, centre y, direction x, direction y, length (std
+    along the axis, px), elongation (major/minor std ratio), area (px).
+    """
+    count, labels = cv2.connectedComponents(mask.view(np.uint8), connectivity=8)
+    ys, xs = np.nonzero(mask)
+    label = labels[ys, xs]
+    n = np.bincount(label, minlength=count).astype(np.float64)
+    keep = n >= max(min_area, 2)
+    keep[0] = False
+    if not keep.any():
+        return np.zeros((0, 7))
+    x, y = xs.astype(np.float64), ys.astype(np.float64)
+    sx, sy = np.bincount(label, x, count), np.bincount(label, y, count)
+    sxx, syy = np.bincount(label, x * x, count), np.bincount(label, y * y, count)
+    sxy = np.bincount(label, x * y, count)
+    n, sx, sy, sxx, syy, sxy = (v[keep] for v in (n, sx, sy, sxx, syy, sxy))
+    cx, cy = sx / n, sy / n
+    a, c, b = sxx / n - cx**2, syy / n - cy**2, sxy / n - cx * cy
+    half_gap = np.sqrt(((a - c) / 2) ** 2 + b**2)
+    major, minor = (a + c) / 2 + half_gap, np.maximum((a + c) / 2 - half_gap, 1e-9)
+    theta = 0.5 * np.arctan2(2 * b, a - c)
+    return np.stack([cx, cy, np.cos(theta), np.sin(theta), np.sqrt(major),
+                     np.sqrt(major / minor), n], axis=1)
+
+
+class PivotEstimator:
+    """The point where the link's lines meet: the mode of the pairwise intersections of
+    the last ``memory`` lines. Lines of the turning link all cross at the pivot; lines of
+    anything else (a distractor, a blob elongated along the motion) cross anywhere, so
+    they spread out and do not move the mode."""
+
+    def __init__(self, memory: int = 60, refresh: int = 5) -> None:
+        self.lines: deque[np.ndarray] = deque(maxlen=memory)
+        self.refresh, self._new = refresh, 0
+        self._cached: np.ndarray | None = None
+        self._last: np.ndarray | None = None
+
+    def add_line(self, line: np.ndarray) -> None:
+        """``line``: a row of `component_lines` (centre, direction, length, elongation).
+        The pivot is solved again every ``refresh`` new lines: it does not move, and one
+        solve (all pairs of up to 60 lines) costs as much as the rest of a frame."""
+        self.lines.append(line)
+        self._new += 1
+        if self._new >= self.refresh or self._last is None:
+            self._cached, self._new = None, 0
+
+    def pivot(self) -> np.ndarray | None:
+        """The densest point of the intersections of line pairs that cross at more than
+        10 degrees, once 20 such pairs exist; before that, the last pivot (or None)."""
+        if self._cached is not None or len(self.lines) < 6:
+            return self._cached if self._cached is not None else self._last
+        lines = np.array(self.lines)
+        centre, direction, weight = lines[:, 0:2], lines[:, 2:4], lines[:, 4]
+        i, j = np.triu_indices(len(lines), k=1)
+        cross = direction[i, 0] * direction[j, 1] - direction[i, 1] * direction[j, 0]
+        good = np.abs(cross) > math.sin(math.radians(10))
+        if np.count_nonzero(good) < 20:
+            return self._last
+        i, j, cross = i[good], j[good], cross[good]
+        delta = centre[j] - centre[i]
+        along_i = (delta[:, 0] * direction[j, 1] - delta[:, 1] * direction[j, 0]) / cross
+        points = centre[i] + along_i[:, None] * direction[i]
+        weights = weight[i] * weight[j]
+        point = np.array([np.median(points[:, 0]), np.median(points[:, 1])])
+        for radius in (16.0, 8.0, 4.0, 4.0):  # shrinking mean shift toward the mode
+            near = np.hypot(*(points - point).T) < radius
+            if not near.any():
+                break
+            point = np.average(points[near], axis=0, weights=weights[near])
+        self._cached = self._last = point
+        return point
+
+
+class LinkTracker:
+    """Follows one link turning about a fixed pivot, from masks of moving pixels.
+
+    Args:
+        reference_direction: direction (rad) of the fixed reference link.
+        pivot: the pivot (working pixels), if known; else estimated from the masks.
+        joint_range: the joint's (low, high) limits (rad), if known.
+        min_area: fewest pixels a moving region needs to count.
+    """
+
+    def __init__(self, reference_direction: float = 0.0, pivot: np.ndarray | None = None,
+                 joint_range: tuple[float, float] | None = None, min_area: int = 12) -> None:
+        self.reference_direction, self.known_pivot = reference_direction, pivot
+        self.joint_range, self.min_area = joint_range, min_area
+        self.pivots = PivotEstimator()
+        self.radius: float | None = None
+        self._radius_pivot: np.ndarray | None = None
+        self.lost_for = 0
+
+    def pivot(self) -> np.ndarray | None:
+        return self.known_pivot if self.known_pivot is not None else self.pivots.pivot()
+
+    def lines(self, mask: np.ndarray) -> np.ndarray:
+        """The moving regions' lines (`component_lines`); elongated ones feed the pivot."""
+        lines = component_lines(mask, self.min_area)
+        if self.known_pivot is None:
+            for line in lines:
+                if line[5] > 1.4 and line[4] > 3.0:
+                    self.pivots.add_line(line)
+        pivot = self.pivot()
+        if pivot is not None and (self._radius_pivot is None
+                                  or np.hypot(*(pivot - self._radius_pivot)) > 2.0):
+            self.radius, self._radius_pivot = None, pivot  # r was measured from elsewhere
+        return lines
+
+    def measure(
+        self, lines: np.ndarray, pivot: np.ndarray, last: float | None
+    ) -> tuple[float, float] | None:
+        """The location s: the link's direction (rad, CCW, image up), from the moving
+        regions that lie along a ray from the pivot, and those regions' area (px).
+
+        A region belongs to the link when it is clearly elongated and its principal axis
+        points at the pivot within ~14 degrees (it lies along a ray: the link's leading and
+        trailing slivers do, a distractor's blob seldom does), it is no farther than 1.6
+        link radii, and it lies within 45 degrees of the last direction (a gate dropped
+        after 5 frames without a match, so a wrong lock cannot last). The direction is the
+        mean of those regions' axes weighted by length times area, pointed away from the
+        pivot: an axis does not tilt when the pivot is a few pixels off, as a
+        pivot-to-pixel angle would.
+        """
+        if len(lines) == 0:
+            return None
+        centre, direction = lines[:, 0:2], lines[:, 2:4]
+        length, area = lines[:, 4], lines[:, 6]
+        offset = centre - pivot
+        distance = np.hypot(offset[:, 0], offset[:, 1])
+        miss = np.abs(offset[:, 0] * direction[:, 1] - offset[:, 1] * direction[:, 0])
+        # Along a ray from the pivot within ~14 degrees, and clearly elongated: a round blob
+        # (a ball, a fist turning) says nothing about a direction.
+        keep = (miss < np.maximum(4.0, 0.25 * distance)) & (distance > 2.0)
+        keep &= (length > 2.5) & (lines[:, 5] > 2.0)
+        if self.radius is not None:
+            keep &= distance < 1.6 * self.radius
+        centre_angle = np.arctan2(-offset[:, 1], offset[:, 0])  # image y points down
+        if last is not None and self.lost_for < 5:
+            keep &= np.abs(wrap_angle(centre_angle - last)) < math.radians(45)
+        if not keep.any():
+            self.lost_for += 1
+            return None
+        self.lost_for = 0
+        # Axes point from the pivot outward; y flips to the CCW, image-up convention.
+        outward = np.where((np.einsum("ij,ij->i", direction, offset) < 0)[:, None],
+                           -direction, direction)[keep]
+        angles = np.arctan2(-outward[:, 1], outward[:, 0])
+        weights = (length * area)[keep]
+        mean = math.atan2(float(np.sum(weights * np.sin(angles))),
+                          float(np.sum(weights * np.cos(angles))))
+        reach = float(np.max(distance[keep] + 1.7 * length[keep]))
+        self.radius = reach if self.radius is None else 0.9 * self.radius + 0.1 * reach
+        return mean, float(area[keep].sum())
+
+    def before_pivot(self, lines: np.ndarray) -> float | None:
+        """Until the pivot is found: the longest elongated region's axis (rad), pointed
+        by the joint range; None without a range or such a region."""
+        if self.joint_range is None or len(lines) == 0:
+            return None
+        candidates = lines[(lines[:, 5] > 2.0) & (lines[:, 4] > 2.5)]
+        if len(candidates) == 0:
+            return None
+        line = candidates[np.argmax(candidates[:, 4] * candidates[:, 6])]
+        axis = math.atan2(-line[3], line[2])  # CCW, image up
+        lo, hi = self.joint_range
+        middle = self.reference_direction + (lo + hi) / 2
+        if abs(wrap_angle(axis - middle)) > math.pi / 2:
+            axis += math.pi
+        return float(wrap_angle(axis))
+
+    def keypoints(self, angle: float) -> np.ndarray | None:
+        """(2, 2) working pixels of the pivot and the link's tip, once both are known."""
+        pivot = self.pivot()
+        if pivot is None or self.radius is None:
+            return None
+        return np.stack([pivot, pivot + self.radius * np.array([math.cos(angle),
+                                                                -math.sin(angle)])])
+

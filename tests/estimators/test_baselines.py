@@ -1,0 +1,38 @@
+"""The baselines run behind DON's interface, on the same geometry, with defined output."""
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from imimic_gym.estimators.baselines import CamShiftEstimator, MOG2Estimator
+from imimic_gym.estimators.types import Estimate
+
+from .test_don import FPS, PIVOT, H, W, sweep
+
+
+def coloured_bar(angle: float) -> np.ndarray:
+    """An orange bar on a grey background (CamShift needs a hue to follow)."""
+    frame = np.full((H, W, 3), 90, dtype=np.uint8)
+    tip = PIVOT + 100 * np.array([math.cos(angle), -math.sin(angle)])
+    cv2.line(frame, tuple(PIVOT.astype(int)), tuple(np.rint(tip).astype(int)),
+             (240, 130, 20), thickness=10)
+    return frame
+
+
+@pytest.mark.parametrize("estimator", [MOG2Estimator, CamShiftEstimator])
+def test_baseline_follows_a_turning_bar(estimator) -> None:
+    angles = sweep(3.0, 90)
+    estimates = estimator(fps=FPS, joint_range=(0.0, math.pi)).run(
+        coloured_bar(a) for a in angles)
+    assert all(isinstance(e, Estimate) for e in estimates)
+    late = [abs(math.degrees(e.angles[0] - a)) for e, a in zip(estimates, angles, strict=True)][45:]
+    assert np.median(late) < 4.0
+
+
+@pytest.mark.parametrize("estimator", [MOG2Estimator, CamShiftEstimator])
+def test_baseline_output_is_defined_on_still_and_black_input(estimator) -> None:
+    black = np.zeros((H, W, 3), dtype=np.uint8)
+    for estimate in estimator(fps=FPS).run([black] * 12):
+        assert np.all(np.isfinite(estimate.as_vector())) and estimate.trust == 1.0

@@ -1,0 +1,35 @@
+import json
+import math
+
+import pytest
+
+from imimic_gym.cli import main
+from imimic_gym.evaluation import evaluate_estimator
+
+
+def test_eval_writes_json_with_finite_metrics(tmp_path) -> None:
+    out = tmp_path / "eval.json"
+    assert main(["eval", "--scenario", "exp2-servo", "--estimator", "don", "mog2",
+                 "--episodes", "1", "--json", str(out)]) == 0
+    results = json.loads(out.read_text())
+    assert [r["estimator"] for r in results] == ["don", "mog2"]
+    for result in results:
+        mean = result["mean"]
+        for key in ("rmse_deg", "rmse_deg_settled", "lag_frames", "mean_trust"):
+            assert math.isfinite(mean[key])
+        assert 0.0 <= mean["mean_trust"] <= 1.0
+    don = results[0]["mean"]
+    assert don["rmse_deg_settled"] < 3.0  # the servo, after warm-up
+
+
+def test_occluded_frames_are_scored_with_and_without_prediction() -> None:
+    result = evaluate_estimator("exp3-forearm-high", "don", episodes=1)
+    row = result["rows"][0]
+    assert row["occluded_frames"] > 0
+    assert math.isfinite(row["rmse_occluded_deg_prediction_off"])
+    assert math.isfinite(row["rmse_occluded_deg_prediction_on"])
+
+
+def test_eval_refuses_multi_link_scenarios_for_now() -> None:
+    with pytest.raises(ValueError, match="one moving link so far; 'chain-2' has 2"):
+        evaluate_estimator("chain-2", "don", episodes=1)
