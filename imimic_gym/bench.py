@@ -162,21 +162,19 @@ def don_window_and_lighting(out_prefix: str, frames: int = 90) -> dict[str, Any]
             don.update(frame)
             total += int(np.count_nonzero(don.last_mask)) if don.last_mask is not None else 0
         areas.append(total / len(lit) * don.scale**2)  # in input pixels per frame
-    fig, ax = plt.subplots(figsize=(5, 3.5))
-    ax.plot(windows, window_ms, "o-")
-    ax.set(xlabel="frames in the input layer, N", ylabel="ms per frame (240x320, 1 thread)",
-           title="DON: computation time vs N (paper Fig. 3a)")
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(f"{out_prefix}_window.png", dpi=110)
-    plt.close(fig)
-    fig, ax = plt.subplots(figsize=(5, 3.5))
-    ax.plot(lighting, areas, "o-")
-    ax.set(xlabel="light intensity", ylabel="moving pixels detected per frame",
-           title="DON: detected area vs light (paper Fig. 3b)")
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(f"{out_prefix}_lighting.png", dpi=110)
-    plt.close(fig)
+    for name, x, y, labels in (
+        ("window", windows, window_ms, ("frames in the input layer, N",
+                                        "ms per frame (240x320, 1 thread)",
+                                        "DON: computation time vs N (paper Fig. 3a)")),
+        ("lighting", lighting, areas, ("light intensity", "moving pixels detected per frame",
+                                       "DON: detected area vs light (paper Fig. 3b)")),
+    ):
+        fig, ax = plt.subplots(figsize=(5, 3.5))
+        ax.plot(x, y, "o-")
+        ax.set(xlabel=labels[0], ylabel=labels[1], title=labels[2])
+        ax.grid(alpha=0.3)
+        fig.tight_layout()
+        fig.savefig(f"{out_prefix}_{name}.png", dpi=110)
+        plt.close(fig)
     return {"window": windows, "window_ms": window_ms, "lighting": lighting,
             "area_px_per_frame": areas}

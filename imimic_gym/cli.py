@@ -12,6 +12,14 @@ import imimic_gym  # noqa: F401  (registers the env, sets headless GL)
 ESTIMATORS = ("oracle", "don")
 
 
+def _save_json(path: str | None, data: object) -> None:
+    """Write ``data`` as JSON to ``path`` (folders made as needed); nothing if no path."""
+    if path:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        Path(path).write_text(json.dumps(data, indent=2) + "\n")
+        print(f"wrote {path}")
+
+
 def _print_table(rows: dict[str, object]) -> None:
     width = max(len(k) for k in rows)
     for key, value in rows.items():
@@ -117,10 +125,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
                   f"settled {mean['rmse_deg_settled']:6.2f} deg, lag "
                   f"{mean['lag_frames']:5.1f} frames, eta {mean['mean_trust']:.2f}{occluded}",
                   flush=True)
-    if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(results, indent=2) + "\n")
-        print(f"wrote {args.json}")
+    _save_json(args.json, results)
     return 0
 
 
@@ -149,10 +154,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     result["render_frames_per_s"] = bench_render()
     for name, fps in result["render_frames_per_s"].items():
         print(f"  {name:20s} {fps:6.0f}")
-    if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
-        print(f"wrote {args.json}")
+    _save_json(args.json, result)
     return 0
 
 
@@ -171,10 +173,7 @@ def _bench_don(args: argparse.Namespace, result: dict[str, object]) -> int:
     print("time against N and detected area against light (paper Fig. 3)...")
     result["figure3"] = don_window_and_lighting(prefix)
     print(f"  wrote {prefix}_window.png and {prefix}_lighting.png")
-    if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
-        print(f"wrote {args.json}")
+    _save_json(args.json, result)
     return 0
 
 
