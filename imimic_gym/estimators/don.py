@@ -52,12 +52,12 @@ from imimic_gym.metrics import wrap_angle
 
 __all__ = ["DON", "FrameShapeError", "SlidingExtrema"]
 
-_ONES = np.ones((1, 3), dtype=np.float32)
-
-
-def _channel_sum(image: np.ndarray) -> np.ndarray:
-    """(H, W) uint8 sum of the 3 channels, saturating at 255: one OpenCV pass."""
-    return cv2.transform(image, _ONES)
+def _any_channel_above(difference: np.ndarray, tau: int) -> np.ndarray:
+    """(H, W) bool: some colour channel of ``difference`` exceeds ``tau``. Thresholding each
+    channel, then converting to grey (positive exactly where any channel passed), is
+    three SIMD passes; numpy's max over the channel axis is 30x slower."""
+    _, passed = cv2.threshold(difference, tau, 255, cv2.THRESH_BINARY)
+    return cv2.cvtColor(passed, cv2.COLOR_RGB2GRAY) > 0
 
 
 class SlidingExtrema:
@@ -113,8 +113,8 @@ class DON:
         fps: frame rate of the video, for rad/s.
         window: N, the frames in the input layer (paper: 10).
         gaussian: the paper's Gaussian kernel size at 240 rows (paper: 15).
-        threshold: binarisation threshold of a difference: the sum over the three colour
-            channels, in grey levels.
+        threshold: binarisation threshold of a difference, grey levels, in any colour
+            channel.
         working_height: rows of the working resolution (see the module docstring).
         reference_direction: image-plane direction (rad, CCW from image right) of the
             fixed reference link; the joint angle is the link's direction minus this.
@@ -138,7 +138,7 @@ class DON:
         fps: float = 30.0,
         window: int = 10,
         gaussian: int = 15,
-        threshold: int = 20,
+        threshold: int = 12,
         working_height: int = 120,
         reference_direction: float = 0.0,
         pivot: tuple[float, float] | None = None,
@@ -185,11 +185,11 @@ class DON:
         """l_1 = (union_p delta2_p) & delta1_1 (paper Eq. OL), binary uint8."""
         tau = self.threshold
         # DON layer 2: frame difference, paper Eqs. (f1), (f2), binarised.
-        # A pixel differs when its colour channels differ by more than tau in sum (L1).
-        delta1 = _channel_sum(cv2.absdiff(image, self.previous)) > tau
+        # A pixel differs when any colour channel differs by more than tau.
+        delta1 = _any_channel_above(cv2.absdiff(image, self.previous), tau)
         low, high = self.extrema.extrema()
-        union = (_channel_sum(cv2.subtract(image, low)) > tau) | (
-            _channel_sum(cv2.subtract(high, image)) > tau)
+        union = _any_channel_above(cv2.subtract(image, low), tau) | _any_channel_above(
+            cv2.subtract(high, image), tau)
         # DON layer 3: object identification, paper Eq. (OL).
         return delta1 & union
 

@@ -54,7 +54,7 @@ class PivotEstimator:
     anything else (a distractor, a blob elongated along the motion) cross anywhere, so
     they spread out and do not move the mode."""
 
-    def __init__(self, memory: int = 60, refresh: int = 5) -> None:
+    def __init__(self, memory: int = 40, refresh: int = 10) -> None:
         self.lines: deque[np.ndarray] = deque(maxlen=memory)
         self.refresh, self._new = refresh, 0
         self._cached: np.ndarray | None = None
@@ -63,7 +63,7 @@ class PivotEstimator:
     def add_line(self, line: np.ndarray) -> None:
         """``line``: a row of `component_lines` (centre, direction, length, elongation).
         The pivot is solved again every ``refresh`` new lines: it does not move, and one
-        solve (all pairs of up to 60 lines) costs as much as the rest of a frame."""
+        solve (all pairs of up to 40 lines) costs as much as the rest of a frame."""
         self.lines.append(line)
         self._new += 1
         if self._new >= self.refresh or self._last is None:
