@@ -172,6 +172,7 @@ def don_window_and_lighting(out_prefix: str, frames: int = 90) -> dict[str, Any]
         fig, ax = plt.subplots(figsize=(5, 3.5))
         ax.plot(x, y, "o-")
         ax.set(xlabel=labels[0], ylabel=labels[1], title=labels[2])
+        ax.set_ylim(bottom=0)
         ax.grid(alpha=0.3)
         fig.tight_layout()
         fig.savefig(f"{out_prefix}_{name}.png", dpi=110)

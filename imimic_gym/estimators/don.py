@@ -122,8 +122,8 @@ class DON:
         trust_threshold: below this eta the prediction layer takes over. Default 0, off:
             on the rendered scenarios eta does not yet separate occlusion from ordinary
             changes of speed, and switching to prediction on it raised the angle error
-            (measured: exp2-servo 0.5 -> 1.5 degrees at 0.3). eta is still computed and
-            reported in every estimate.
+            on clips without occlusion. eta is still computed and reported in every
+            estimate; `imimic eval` scores occluded frames with prediction off and on.
         robot: a MuJoCo model of the robot, for torques; None gives zero torque.
         joint_range: the joint's (low, high) limits in rad, if known. Before the pivot is
             found, a moving region's axis gives the link's direction up to 180 degrees;
