@@ -71,8 +71,10 @@ class PivotEstimator:
 
     def pivot(self) -> np.ndarray | None:
         """The densest point of the intersections of line pairs that cross at more than
-        10 degrees, once 20 such pairs exist; before that, the last pivot (or None)."""
-        if self._cached is not None or len(self.lines) < 6:
+        10 degrees, once 12 lines and 20 such pairs exist; before that, the last pivot (or
+        None). A first pivot from fewer lines can come from a distractor, and once found
+        only the link's accepted regions refine it (`LinkTracker.lines`)."""
+        if self._cached is not None or len(self.lines) < 12:
             return self._cached if self._cached is not None else self._last
         lines = np.array(self.lines)
         centre, direction, weight = lines[:, 0:2], lines[:, 2:4], lines[:, 4]
@@ -119,9 +121,12 @@ class LinkTracker:
         return self.known_pivot if self.known_pivot is not None else self.pivots.pivot()
 
     def lines(self, mask: np.ndarray) -> np.ndarray:
-        """The moving regions' lines (`component_lines`); elongated ones feed the pivot."""
+        """The moving regions' lines (`component_lines`). Until a pivot is found every
+        elongated region feeds the pivot estimate; after that only regions accepted as
+        the link do (in `measure`), so a distractor or an occluder's edges cannot drag a
+        pivot that the link's own lines have fixed."""
         lines = component_lines(mask, self.min_area)
-        if self.known_pivot is None:
+        if self.known_pivot is None and self.pivots.pivot() is None:
             for line in lines:
                 if line[5] > 1.4 and line[4] > 3.0:
                     self.pivots.add_line(line)
@@ -166,6 +171,9 @@ class LinkTracker:
             self.lost_for += 1
             return None
         self.lost_for = 0
+        if self.known_pivot is None:
+            for line in lines[keep]:
+                self.pivots.add_line(line)
         # Axes point from the pivot outward; y flips to the CCW, image-up convention.
         outward = np.where((np.einsum("ij,ij->i", direction, offset) < 0)[:, None],
                            -direction, direction)[keep]

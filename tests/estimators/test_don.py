@@ -128,3 +128,24 @@ def test_component_lines_find_a_drawn_line() -> None:
     direction = line[2:4] * np.sign(line[2])
     assert np.allclose(direction, [math.sqrt(0.5), -math.sqrt(0.5)], atol=0.02)
     assert line[5] > 5  # elongated
+
+
+def test_a_sweeping_board_does_not_drag_a_found_pivot() -> None:
+    """After 40 frames of the bar alone, a bright board sweeps across the scene: its
+    long moving edges are lines too, but only regions accepted as the link refine the
+    pivot, so it stays put and the angle stays right where the bar is visible."""
+    angles = sweep(3.0, 100)
+    frames = []
+    for i, angle in enumerate(angles):
+        frame = bar_frame(angle)
+        if i >= 40:
+            x = int(20 + (i - 40) * 4) % 300
+            frame[20:220, x:x + 30] = (200, 170, 90)
+        frames.append(frame)
+    don = DON(fps=FPS)
+    for i, frame in enumerate(frames):
+        don.update(frame)
+        if i == 39:
+            found = don.link.pivot() * don.scale
+    assert np.hypot(*(found - PIVOT)) < 3.0
+    assert np.hypot(*(don.link.pivot() * don.scale - PIVOT)) < 3.0
