@@ -101,10 +101,6 @@ class SlidingExtrema:
             self.suffix_min, self.suffix_max = lows[::-1], highs[::-1]
             self.block, self.run_min, self.run_max = [], None, None
 
-    @property
-    def empty(self) -> bool:
-        return not self.block and not self.suffix_min
-
 
 class DON:
     """The vision-to-motion optical network for one moving link.
@@ -130,8 +126,6 @@ class DON:
             a range narrower than that says which way it points.
         min_area: fewest moving pixels (working resolution) that count as motion.
     """
-
-    n_links = 1
 
     def __init__(
         self,
@@ -242,6 +236,14 @@ class DON:
                         trust=float(np.clip(trust, 0.0, 1.0)), predicted=predicted,
                         keypoints=keypoints)
 
+    def _hold(self, trust: float) -> Estimate:
+        """Nothing to measure: the link stays where it was, at rest (the path estimator
+        hears v = 0, so the next movement's omega does not start from the last one's)."""
+        if self.angle is not None:
+            self.path.update(np.array([self.angle]))
+            self.estimate = self._estimate(self.angle, 0.0, 0.0, trust, predicted=False)
+        return self.estimate
+
     def update(self, frame: np.ndarray) -> Estimate:
         """Take the next (H, W, 3) uint8 RGB frame; return the estimate for it."""
         image = self.frames(frame)
@@ -260,10 +262,7 @@ class DON:
 
         if area < self.min_area:
             self.areas.append(None)
-            # No motion: hold the last estimate (nothing moved, nothing to distrust).
-            if self.angle is not None:
-                self.estimate = self._estimate(self.angle, 0.0, 0.0, trust=1.0, predicted=False)
-            return self.estimate
+            return self._hold(trust=1.0)  # nothing moved, nothing to distrust
 
         lines = self.link.lines(mask)
         pivot = self.link.pivot()
@@ -275,13 +274,9 @@ class DON:
         # DON layer 3 + object regression: where the link is, from l_1's regions.
         measured = self.link.measure(lines, pivot, self.angle)
         if measured is None:
+            # Motion, but none along the link (a distractor while the arm rests).
             self.areas.append(None)
-            # Motion, but none along the link (a distractor while the arm rests): hold.
-            if self.angle is not None:
-                self.path.update(np.array([self.angle]))
-                self.estimate = self._estimate(self.angle, 0.0, 0.0, self.trust_factor(),
-                                               False)
-            return self.estimate
+            return self._hold(trust=self.trust_factor())
         location, link_area = measured
         turned = (abs(float(wrap_angle(location - self.measured)))
                   if self.measured is not None else 0.0)
