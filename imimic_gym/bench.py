@@ -74,16 +74,20 @@ def bench_env(steps: int = 3000, repeats: int = 5, seed: int = 0) -> dict[str, A
     }
 
 
-def bench_render(n_frames: int = 150, height: int = 240, width: int = 320) -> dict[str, float]:
-    """Frames/s of rendering each scenario from scratch (no cache), truth included."""
+def bench_render(n_frames: int = 150, height: int = 240, width: int = 320,
+                 repeats: int = 3) -> dict[str, float]:
+    """Frames/s of rendering each scenario from scratch (no cache), truth included; the
+    median of ``repeats`` rounds over all scenarios (this machine is shared: one run can
+    be a third slower than the next)."""
     render_clip(get_scenario("default", n_frames=5), progress=False)  # GL warm-up
-    fps = {}
-    for name in scenario_names():
-        spec = get_scenario(name, n_frames=n_frames, height=height, width=width)
-        start = time.perf_counter()
-        render_clip(spec, progress=False)
-        fps[name] = n_frames / (time.perf_counter() - start)
-    return fps
+    runs: dict[str, list[float]] = {name: [] for name in scenario_names()}
+    for _ in range(repeats):
+        for name in runs:
+            spec = get_scenario(name, n_frames=n_frames, height=height, width=width)
+            start = time.perf_counter()
+            render_clip(spec, progress=False)
+            runs[name].append(n_frames / (time.perf_counter() - start))
+    return {name: float(np.median(fps)) for name, fps in runs.items()}
 
 
 PAPER_RESOLUTIONS = ((240, 320), (480, 640), (720, 960), (960, 1280))
