@@ -52,37 +52,53 @@ class PivotEstimator:
     """The point where the link's lines meet: the mode of the pairwise intersections of
     the last ``memory`` lines. Lines of the turning link all cross at the pivot; lines of
     anything else (a distractor, a blob elongated along the motion) cross anywhere, so
-    they spread out and do not move the mode."""
+    they spread out and do not move the mode.
 
-    def __init__(self, memory: int = 40, refresh: int = 10) -> None:
+    It is solved every ``refresh`` new lines (the pivot does not move, and a solve over
+    all pairs of 40 lines costs as much as the rest of a frame). The first pivot is only
+    taken when two solves ``refresh`` lines apart agree within ``agree_px``: a pivot made
+    of a sweeping occluder's edges moves with the occluder, the real one stays put.
+    """
+
+    def __init__(self, memory: int = 40, refresh: int = 10, agree_px: float = 4.0) -> None:
         self.lines: deque[np.ndarray] = deque(maxlen=memory)
-        self.refresh, self._new = refresh, 0
-        self._cached: np.ndarray | None = None
+        self.refresh, self.agree_px = refresh, agree_px
+        self._new, self._stale = 0, False
         self._last: np.ndarray | None = None
+        self._candidate: np.ndarray | None = None
 
     def add_line(self, line: np.ndarray) -> None:
-        """``line``: a row of `component_lines` (centre, direction, length, elongation).
-        The pivot is solved again every ``refresh`` new lines: it does not move, and one
-        solve (all pairs of up to 40 lines) costs as much as the rest of a frame."""
+        """``line``: a row of `component_lines` (centre, direction, length, elongation)."""
         self.lines.append(line)
         self._new += 1
-        if self._new >= self.refresh or self._last is None:
-            self._cached, self._new = None, 0
+        if self._new >= self.refresh:
+            self._stale, self._new = True, 0
 
     def pivot(self) -> np.ndarray | None:
+        """The current pivot (working pixels), or None before a first one is agreed."""
+        if not self._stale or len(self.lines) < 12:
+            return self._last
+        self._stale = False
+        point = self._solve()
+        if point is None:
+            return self._last
+        if self._last is None:
+            candidate, self._candidate = self._candidate, point
+            if candidate is None or np.hypot(*(point - candidate)) > self.agree_px:
+                return None
+        self._last = point
+        return point
+
+    def _solve(self) -> np.ndarray | None:
         """The densest point of the intersections of line pairs that cross at more than
-        10 degrees, once 12 lines and 20 such pairs exist; before that, the last pivot (or
-        None). A first pivot from fewer lines can come from a distractor, and once found
-        only the link's accepted regions refine it (`LinkTracker.lines`)."""
-        if self._cached is not None or len(self.lines) < 12:
-            return self._cached if self._cached is not None else self._last
+        10 degrees (mean shift from their median), if at least 20 such pairs exist."""
         lines = np.array(self.lines)
         centre, direction, weight = lines[:, 0:2], lines[:, 2:4], lines[:, 4]
         i, j = np.triu_indices(len(lines), k=1)
         cross = direction[i, 0] * direction[j, 1] - direction[i, 1] * direction[j, 0]
         good = np.abs(cross) > math.sin(math.radians(10))
         if np.count_nonzero(good) < 20:
-            return self._last
+            return None
         i, j, cross = i[good], j[good], cross[good]
         delta = centre[j] - centre[i]
         along_i = (delta[:, 0] * direction[j, 1] - delta[:, 1] * direction[j, 0]) / cross
@@ -94,7 +110,6 @@ class PivotEstimator:
             if not near.any():
                 break
             point = np.average(points[near], axis=0, weights=weights[near])
-        self._cached = self._last = point
         return point
 
 
