@@ -225,3 +225,21 @@ def test_a_clip_object_can_be_the_scenario() -> None:
     np.testing.assert_allclose(resized, clip.truth.keypoints * 0.5, rtol=1e-6)
     with pytest.raises(ValueError, match="n_links=3 but the clip has 2 links"):
         gym.make("ImitateVideo-v0", scenario=clip, n_links=3)
+
+
+def test_a_clip_without_truth_is_refused_with_the_reason() -> None:
+    from imimic_gym.clips import Clip
+
+    clip = Clip(frames=np.zeros((5, 24, 32, 3), dtype=np.uint8), fps=30.0, meta={"source": "x"})
+    with pytest.raises(ValueError, match="needs a clip with ground truth"):
+        gym.make("ImitateVideo-v0", scenario=clip)
+
+
+def test_only_a_few_clips_stay_in_memory() -> None:
+    from imimic_gym.envs.imitate_video import CLIPS_IN_MEMORY
+
+    env = make(scenario="exp2-servo", n_frames=4, clip_seeds=tuple(range(CLIPS_IN_MEMORY + 2)))
+    for seed in range(CLIPS_IN_MEMORY + 2):
+        env.reset(seed=0, options={"clip_seed": seed})
+    assert len(env.unwrapped._clips) == CLIPS_IN_MEMORY
+    assert env.unwrapped.clip.meta["seed"] == CLIPS_IN_MEMORY + 1

@@ -27,6 +27,7 @@ MODALITIES = ("rgb", "depth")
 # (max error within 0.1 degrees) at half the cost: 9 substeps per frame at 30 fps.
 MAX_PHYSICS_STEP = 0.004
 MAX_OBSERVED_SPEED = 200.0  # rad/s; the joint-velocity sensor saturates here
+CLIPS_IN_MEMORY = 4
 
 
 def depth_to_frame(depth: np.ndarray) -> np.ndarray:
@@ -143,6 +144,11 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         self._fixed_clip: Clip | None = None
         self._spec: ClipSpec | None = None
         if isinstance(scenario, Clip):
+            if scenario.truth is None:
+                raise ValueError(
+                    "ImitateVideo-v0 needs a clip with ground truth (its reward compares the "
+                    f"robot with the true angles); clip {scenario.meta} has none"
+                )
             if n_links is not None and n_links != scenario.n_links:
                 raise ValueError(f"n_links={n_links} but the clip has {scenario.n_links} links")
             self._fixed_clip = scenario.resized(height, width)
@@ -188,10 +194,14 @@ class ImitateVideoEnv(gym.Env, EzPickle):
 
     # Clips ---------------------------------------------------------------------------
     def _load(self, seed: int) -> Clip:
+        """The clip of ``seed``, from memory, else the disk cache, else rendered. Memory
+        keeps the last ``CLIPS_IN_MEMORY`` (a 150-frame clip is ~58 MB)."""
         if self._fixed_clip is not None:
             return self._fixed_clip
         if seed not in self._clips:
             assert self._spec is not None
+            if len(self._clips) >= CLIPS_IN_MEMORY:
+                self._clips.pop(next(iter(self._clips)))
             self._clips[seed] = load_clip(self._spec.replace(seed=seed))
         return self._clips[seed]
 
