@@ -13,3 +13,4 @@ mkdir -p benchmarks/results
 "$BIN/imimic" eval --scenario exp2-servo default exp3-forearm-none exp3-forearm-low \
     exp3-forearm-high exp1-noisy-fast --estimator don mog2 camshift --episodes 3 \
     --json benchmarks/results/eval.json
+"$BIN/python" benchmarks/write_results.py
