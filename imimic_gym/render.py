@@ -65,18 +65,23 @@ class OffscreenRenderer:
         rgb = np.flipud(self._rgb).copy()
         return rgb, (self._metres() if depth else None)
 
-    def _metres(self) -> np.ndarray:
-        # OpenGL's non-linear z-buffer to metres along the camera axis.
-        z = np.flipud(self._zbuffer)
+    def _metres(self, zbuffer: np.ndarray | None = None) -> np.ndarray:
+        """OpenGL's non-linear z-buffer (bottom row first) to metres along the camera
+        axis, top row first."""
+        z = np.flipud(self._zbuffer if zbuffer is None else zbuffer)
         return (self._near / (1.0 - z * (1.0 - self._near / self._far))).astype(np.float32)
 
     def segment(
-        self, data: mujoco.MjData, camera: int, groups: tuple[int, ...] | None = None
+        self, data: mujoco.MjData, camera: int, groups: tuple[int, ...] | None = None,
+        box: tuple[int, int, int, int] | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """(H, W) int32 model geom id seen at each pixel (-1 for none), and (H, W) float32
+        """(h, w) int32 model geom id seen at each pixel (-1 for none), and (h, w) float32
         depth in metres, from one pass.
 
         With ``groups``, only geoms of those groups are drawn, as if nothing else existed.
+        With ``box`` = (x0, y0, x1, y1) image pixels (top-left origin, end exclusive), only
+        that part is read back: reading and converting the whole frame costs more than
+        drawing a few geoms.
         """
         self._gl.make_current()
         self._update(data, camera, groups)
@@ -84,16 +89,21 @@ class OffscreenRenderer:
         scene.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = 1
         scene.flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = 1
         mujoco.mjr_render(self._rect, scene, self._context)
-        mujoco.mjr_readPixels(self._rgb, self._zbuffer, self._rect, self._context)
+        x0, y0, x1, y1 = box if box is not None else (0, 0, self.width, self.height)
+        rgb = np.empty((y1 - y0, x1 - x0, 3), dtype=np.uint8)
+        zbuffer = np.empty((y1 - y0, x1 - x0), dtype=np.float32)
+        # OpenGL counts rows from the bottom.
+        rect = mujoco.MjrRect(x0, self.height - y1, x1 - x0, y1 - y0)
+        mujoco.mjr_readPixels(rgb, zbuffer, rect, self._context)
         # Each scene geom is drawn in colour segid + 1 (0 is the background).
         lut = np.full(scene.ngeom + 1, -1, dtype=np.int32)
         for i in range(scene.ngeom):
             geom = scene.geoms[i]
             if geom.objtype == mujoco.mjtObj.mjOBJ_GEOM and geom.segid >= 0:
                 lut[geom.segid + 1] = geom.objid
-        code = self._rgb.astype(np.int32)
+        code = rgb.astype(np.int32)
         code = code[..., 0] | (code[..., 1] << 8) | (code[..., 2] << 16)
-        return np.flipud(lut[np.minimum(code, scene.ngeom)]), self._metres()
+        return np.flipud(lut[np.minimum(code, scene.ngeom)]), self._metres(zbuffer)
 
     def close(self) -> None:
         if self._gl is not None:

@@ -75,6 +75,16 @@ def _boxes_overlap(a: np.ndarray, b: np.ndarray, margin: float) -> bool:
                 and np.all(b.min(axis=0) <= a.max(axis=0) + margin))
 
 
+def _pixel_box(points: np.ndarray, margin: float, height: int,
+               width: int) -> tuple[int, int, int, int]:
+    """(x0, y0, x1, y1), end exclusive: the pixel box around ``points`` (K, 2), grown by
+    ``margin`` and clipped to the image (at least one pixel)."""
+    x0, y0 = np.floor(points.min(axis=0) - margin).astype(int)
+    x1, y1 = np.ceil(points.max(axis=0) + margin).astype(int) + 1
+    x0, y0 = min(max(x0, 0), width - 1), min(max(y0, 0), height - 1)
+    return x0, y0, max(min(x1, width), x0 + 1), max(min(y1, height), y0 + 1)
+
+
 def _box_corners(model: mujoco.MjModel, data: mujoco.MjData, geom: int) -> np.ndarray:
     """(8, 3) world corners of box geom ``geom``."""
     signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
@@ -152,9 +162,11 @@ def render_clip(spec: ClipSpec, progress: bool = True) -> Clip:
                     model, data, camera, _box_corners(model, data, board), h, w)[0],
                 limb_px)
             if board_near or not visible[i].all():
-                geoms, link_depth = renderer.segment(data, camera, groups=(MOVING_GROUP,))
+                x0, y0, x1, y1 = _pixel_box(keypoints[i][moving_keypoints], limb_px, h, w)
+                geoms, link_depth = renderer.segment(data, camera, groups=(MOVING_GROUP,),
+                                                     box=(x0, y0, x1, y1))
                 covered = geoms >= 0
-                hidden = covered & (depth[i] < link_depth - surface_margin)
+                hidden = covered & (depth[i][y0:y1, x0:x1] < link_depth - surface_margin)
                 total = np.count_nonzero(covered)
                 occlusion[i] = np.count_nonzero(hidden) / total if total else 0.0
 
