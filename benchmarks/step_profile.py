@@ -1,8 +1,8 @@
 """Where an ImitateVideo-v0 step spends its time, and what the physics step size costs.
 
 Times each part of a step (physics, observation copy, info) with the env's settings, and
-the physics alone at a 2 ms substep for comparison, with the tracking error of both on
-the same target trajectory. Usage:
+the physics alone at a 2 ms substep for comparison, with the position servo's tracking
+error under both on the same target trajectory. Usage:
 
     .venv/bin/python benchmarks/step_profile.py --json benchmarks/results/step_profile.json
 """

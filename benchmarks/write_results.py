@@ -73,7 +73,7 @@ benchmarks/results/step_profile.json`
         ["observation (frame copy, state)", f"{step['observation_us']:.0f}"],
         ["info (target, error)", f"{step['info_us']:.0f}"]])}
 
-The substep is the largest that divides a frame and stays under 4 ms. The position servo
+The substep is the largest that divides a frame and stays under 5.6 ms. The position servo
 following a 0.5 Hz sine sampled at 30 fps lags by at most
 {step['servo_max_error_deg']:.2f} degrees with it and {step['servo_max_error_2ms_deg']:.2f} with 2 ms
 substeps: the larger step costs no accuracy.
