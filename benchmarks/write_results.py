@@ -36,7 +36,8 @@ def main() -> None:
         rows = mean[(scenario, estimator)]["rows"]
         return ", ".join(f"{r['rmse_deg_settled']:.1f}" for r in rows)
 
-    render = env["render_frames_per_s"]
+    render = dict(env["render_frames_per_s"])
+    reference = render.pop("mujoco_renderer_rgb")
     slow = sorted(name for name, fps in render.items() if fps < 150)
     out = [f"""# Measured results
 
@@ -81,12 +82,19 @@ substeps: the larger step costs no accuracy.
 ## Clip rendering (issue 2)
 
 Same command. Frames per second at 240x320 rendering a 150-frame clip from scratch (no
-cache), ground truth included (keypoints, visibility, occlusion, depth), median of 3:
+cache), ground truth included (keypoints, visibility, occlusion, depth), median of 3
+rounds. The reference, measured in the same rounds: `mujoco.Renderer` drawing plain RGB
+frames of the default scene, no truth: {reference:.0f} frames/s.
 
-{table(["scenario", "frames/s"], [[f"`{k}`", f"{v:.0f}"] for k, v in render.items()])}
+{table(["scenario", "frames/s", "vs mujoco.Renderer RGB"],
+       [[f"`{k}`", f"{v:.0f}", f"{v / reference:.2f}"] for k, v in render.items()])}
 
-Target: at least 150 frames/s. {"Met by every scenario." if not slow else
-"Met by every scenario except " + ", ".join(f"`{s}`" for s in slow) + "."}
+Target: at least 150 frames/s. In this run: {"met by every scenario." if not slow else
+"met by every scenario except " + ", ".join(f"`{s}`" for s in slow) + "."} Absolute
+frame rates move by a quarter between runs on this shared machine (the `default` scenario
+has measured from 156 to 276 frames/s); the ratio to the same-run reference is the
+steadier figure: the full truth costs little over a plain frame except where the
+occlusion pass runs.
 Scenes with an occluder need a second render pass (the moving links alone, as
 segmentation and depth) to measure how much of the arm is hidden, in the frames where the
 board's image overlaps the arm's; on the software renderer every pass costs about 3 ms

@@ -74,15 +74,44 @@ def bench_env(steps: int = 3000, repeats: int = 5, seed: int = 0) -> dict[str, A
     }
 
 
+def _mujoco_renderer_fps(n_frames: int, height: int, width: int) -> float:
+    """Frames/s of ``mujoco.Renderer`` drawing plain RGB of the default scenario's scene at
+    the same size: the reference that clip rendering is compared with in the same run."""
+    import mujoco
+
+    from imimic_gym.clips.demonstrator import scene_mjcf
+
+    spec = get_scenario("default", height=height, width=width)
+    model = mujoco.MjModel.from_xml_string(scene_mjcf(spec, np.random.default_rng(0)))
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    renderer = mujoco.Renderer(model, height, width)
+    try:
+        renderer.update_scene(data, camera="film")
+        renderer.render()  # warm-up
+        start = time.perf_counter()
+        for _ in range(n_frames):
+            renderer.update_scene(data, camera="film")
+            renderer.render()
+        return n_frames / (time.perf_counter() - start)
+    finally:
+        renderer.close()
+
+
 def bench_render(n_frames: int = 150, height: int = 240, width: int = 320,
                  repeats: int = 3) -> dict[str, float]:
-    """Frames/s of rendering each scenario from scratch (no cache), truth included; the
-    median of ``repeats`` rounds over all scenarios (this machine is shared: one run can
-    be a third slower than the next)."""
+    """Frames/s of rendering each scenario from scratch (no cache), truth included; and,
+    as ``mujoco_renderer_rgb``, of ``mujoco.Renderer`` drawing plain RGB frames of the
+    default scene in the same rounds. Medians of ``repeats`` rounds (this machine is
+    shared: one run can be a third slower than the next)."""
     render_clip(get_scenario("default", n_frames=5), progress=False)  # GL warm-up
     runs: dict[str, list[float]] = {name: [] for name in scenario_names()}
+    runs["mujoco_renderer_rgb"] = []
     for _ in range(repeats):
         for name in runs:
+            if name == "mujoco_renderer_rgb":
+                runs[name].append(_mujoco_renderer_fps(n_frames, height, width))
+                continue
             spec = get_scenario(name, n_frames=n_frames, height=height, width=width)
             start = time.perf_counter()
             render_clip(spec, progress=False)

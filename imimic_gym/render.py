@@ -69,7 +69,8 @@ class OffscreenRenderer:
         """OpenGL's non-linear z-buffer (bottom row first) to metres along the camera
         axis, top row first."""
         z = np.flipud(self._zbuffer if zbuffer is None else zbuffer)
-        return (self._near / (1.0 - z * (1.0 - self._near / self._far))).astype(np.float32)
+        near, ratio = np.float32(self._near), np.float32(1.0 - self._near / self._far)
+        return near / (np.float32(1.0) - z * ratio)  # float32 throughout, no extra copy
 
     def segment(
         self, data: mujoco.MjData, camera: int, groups: tuple[int, ...] | None = None,

@@ -21,11 +21,11 @@ import numpy as np
 
 from imimic_gym.clips.scenarios import ClipSpec
 from imimic_gym.clips.synthetic import render_clip
-from imimic_gym.clips.types import Clip, ClipTruth
+from imimic_gym.clips.types import Clip, ClipTruth, depth_from_mm, depth_to_mm
 
 __all__ = ["cache_dir", "cache_path", "load_clip"]
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: depth stored as whole millimetres (uint16)
 log = logging.getLogger(__name__)
 
 
@@ -53,7 +53,7 @@ def _write(path: Path, clip: Clip) -> None:
                 meta=np.array(json.dumps(clip.meta)),
                 fps=np.float64(clip.fps),
                 frames=clip.frames,
-                depth=clip.depth.astype(np.float16),
+                depth_mm=depth_to_mm(clip.depth),
                 angles=truth.angles,
                 angular_velocity=truth.angular_velocity,
                 angular_acceleration=truth.angular_acceleration,
@@ -85,7 +85,7 @@ def _read(path: Path, spec: ClipSpec) -> Clip:
             keypoint_names=tuple(str(n) for n in z["keypoint_names"]),
         )
         meta["scenario"] = spec.name
-        return Clip(frames=z["frames"], fps=float(z["fps"]), depth=z["depth"].astype(np.float32),
+        return Clip(frames=z["frames"], fps=float(z["fps"]), depth=depth_from_mm(z["depth_mm"]),
                     truth=truth, meta=meta)
 
 

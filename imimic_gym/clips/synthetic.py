@@ -30,7 +30,7 @@ from imimic_gym.clips.demonstrator import (
 )
 from imimic_gym.clips.motion import sample_motion
 from imimic_gym.clips.scenarios import ClipSpec
-from imimic_gym.clips.types import Clip, ClipTruth
+from imimic_gym.clips.types import Clip, ClipTruth, depth_from_mm, depth_to_mm
 from imimic_gym.render import OffscreenRenderer, project_points
 
 __all__ = ["clip_meta", "render_clip"]
@@ -96,7 +96,7 @@ def render_clip(spec: ClipSpec, progress: bool = True) -> Clip:
     """Render ``spec``. Deterministic: the same spec gives a bit-identical clip.
 
     Returns a `Clip` with frames (T, H, W, 3) uint8 RGB, depth (T, H, W) float32 metres
-    (rounded to float16 precision, under 2 mm at 4 m, so a cached clip equals a fresh one)
+    (rounded to whole millimetres, so a cached clip equals a fresh one)
     and full `ClipTruth`.
     """
     rng = np.random.default_rng(spec.seed)
@@ -179,6 +179,6 @@ def render_clip(spec: ClipSpec, progress: bool = True) -> Clip:
         occlusion=occlusion,
         keypoint_names=names,
     )
-    depth = depth.astype(np.float16).astype(np.float32)
+    depth = depth_from_mm(depth_to_mm(depth))
     return Clip(frames=frames, fps=float(spec.fps), depth=depth, truth=truth,
                 meta=clip_meta(spec))

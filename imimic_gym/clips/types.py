@@ -7,7 +7,18 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Clip", "ClipTruth"]
+__all__ = ["Clip", "ClipTruth", "depth_from_mm", "depth_to_mm"]
+
+
+def depth_to_mm(depth: np.ndarray) -> np.ndarray:
+    """Depth in metres (float32) to whole millimetres (uint16, up to 65.5 m)."""
+    return np.rint(np.minimum(depth, 65.535) * np.float32(1000.0)).astype(np.uint16)
+
+
+def depth_from_mm(millimetres: np.ndarray) -> np.ndarray:
+    """Whole millimetres (uint16) back to metres (float32). Rendered clips pass their depth
+    through both functions, so a clip read from the cache equals a fresh one bit for bit."""
+    return millimetres.astype(np.float32) / np.float32(1000.0)
 
 
 def _check(name: str, array: np.ndarray, shape: tuple[int | None, ...], dtype: Any) -> None:
