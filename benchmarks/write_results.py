@@ -83,7 +83,7 @@ substeps: the larger step costs no accuracy.
 
 Same command. Frames per second at 240x320 rendering a 150-frame clip from scratch (no
 cache), ground truth included (keypoints, visibility, occlusion, depth), median of 3
-rounds. The reference, measured in the same rounds: `mujoco.Renderer` drawing plain RGB
+rounds. The reference, measured in the same run: `mujoco.Renderer` drawing plain RGB
 frames of the default scene, no truth: {reference:.0f} frames/s.
 
 {table(["scenario", "frames/s", "vs mujoco.Renderer RGB"],
@@ -92,9 +92,11 @@ frames of the default scene, no truth: {reference:.0f} frames/s.
 Target: at least 150 frames/s. In this run: {"met by every scenario." if not slow else
 "met by every scenario except " + ", ".join(f"`{s}`" for s in slow) + "."} Absolute
 frame rates move by a quarter between runs on this shared machine (the `default` scenario
-has measured from 156 to 276 frames/s); the ratio to the same-run reference is the
-steadier figure: the full truth costs little over a plain frame except where the
-occlusion pass runs.
+has measured from 156 to 276 frames/s), which is why the same-run reference is there. A
+frame with its full truth costs {reference / render['default']:.1f}x a plain RGB frame of the same scene. A
+profile of `render_clip` puts most of the difference in reading the depth buffer back with
+the colour, which the depth truth and the keypoint visibility need; the rest is per-frame
+bookkeeping and, in the occluder scenes, the occlusion pass.
 Scenes with an occluder need a second render pass (the moving links alone, as
 segmentation and depth) to measure how much of the arm is hidden, in the frames where the
 board's image overlaps the arm's; on the software renderer every pass costs about 3 ms
