@@ -94,13 +94,14 @@ Target: at least 150 frames/s. In this run: {"met by every scenario." if not slo
 frame rates move by a quarter between runs on this shared machine (the `default` scenario
 has measured from 156 to 276 frames/s), which is why the same-run reference is there. A
 frame with its full truth costs {reference / render['default']:.1f}x a plain RGB frame of the same scene. A
-profile of `render_clip` puts most of the difference in reading the depth buffer back with
-the colour, which the depth truth and the keypoint visibility need; the rest is per-frame
-bookkeeping and, in the occluder scenes, the occlusion pass.
+profile of `render_clip` shows where it goes: reading colour and depth back together (the
+largest single part; the depth truth and the keypoint visibility need it), drawing,
+converting depth, per-frame bookkeeping and, in the occluder scenes, the occlusion pass.
 Scenes with an occluder need a second render pass (the moving links alone, as
 segmentation and depth) to measure how much of the arm is hidden, in the frames where the
-board's image overlaps the arm's; on the software renderer every pass costs about 3 ms
-however little it draws. A rendered clip is cached, so this is paid once per clip.
+board's image overlaps the arm's; on the software renderer a pass has a fixed cost even
+when it draws two geoms and reads back only the box around the arm. A rendered clip is
+cached, so this is paid once per clip.
 
 What makes rendering fast (each measured while building it, one at a time; the table is
 the result of all of them): no MSAA (`offsamples=0`), one llvmpipe thread (at 240x320
