@@ -202,8 +202,9 @@ def arm_mjcf(spec: ArmSpec) -> str:
   <worldbody>
     <light pos="{fmt(light_pos)}" dir="{fmt(-toward_camera)}" castshadow="false"/>
     <camera name="robot" pos="{fmt(cam_pos)}" xyaxes="{fmt(right)} {fmt(up)}" fovy="45"/>
-    <geom name="backdrop" type="plane" pos="{fmt(base - 0.3 * axis)}"
-          zaxis="{fmt(toward_camera)}" size="5 5 0.1" material="backdrop"
+    <!-- A thin box, not a plane: the software renderer draws planes as many lit quads. -->
+    <geom name="backdrop" type="box" pos="{fmt(base - 0.3 * axis)}"
+          zaxis="{fmt(toward_camera)}" size="5 5 0.005" material="backdrop"
           contype="0" conaffinity="0"/>
 {ref_geom}{chain}  </worldbody>
   <actuator>
