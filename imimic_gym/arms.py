@@ -56,6 +56,7 @@ class ArmSpec:
     link_radius: float = 0.025
     timestep: float = 0.002
     rgba: tuple[float, float, float, float] = (0.95, 0.55, 0.1, 1.0)
+    parents: tuple[int, ...] | None = None
 
     def __post_init__(self) -> None:
         n = len(self.link_lengths)
@@ -77,15 +78,32 @@ class ArmSpec:
             raise ValueError(f"control must be one of {CONTROL_MODES}, got {self.control!r}")
         if self.plane not in ("vertical", "horizontal"):
             raise ValueError(f"plane must be 'vertical' or 'horizontal', got {self.plane!r}")
+        parents = self.link_parents
+        if len(parents) != n or parents[0] != -1 or any(
+            not 0 <= p < i for i, p in enumerate(parents[1:], start=1)
+        ):
+            raise ValueError(
+                f"parents must give link 0 the base (-1) and every later link an earlier "
+                f"link, one entry per link; got {self.parents}"
+            )
 
     @property
     def n_links(self) -> int:
         return len(self.link_lengths)
 
     @property
+    def link_parents(self) -> tuple[int, ...]:
+        """Each link's parent link (-1: the base). A chain unless ``parents`` says
+        otherwise (the hand: thumb and index finger both on the forearm)."""
+        return self.parents if self.parents is not None else tuple(range(-1, self.n_links - 1))
+
+    @property
     def reach(self) -> float:
-        """Distance from the base joint to the tip when the arm is straight, in metres."""
-        return float(sum(self.link_lengths))
+        """Longest distance from the base joint to a tip with the arm straight, metres."""
+        parents, total = self.link_parents, []
+        for i, length in enumerate(self.link_lengths):
+            total.append(length + (total[parents[i]] if parents[i] >= 0 else 0.0))
+        return float(max(total))
 
     def with_control(self, control: Control) -> ArmSpec:
         return replace(self, control=control)
@@ -131,30 +149,32 @@ def arm_mjcf(spec: ArmSpec) -> str:
     cam_pos = base + cam_dist * toward_camera
     r = spec.link_radius
 
-    bodies = []
-    indent = "    "
-    for i, (length, mass, (lo, hi)) in enumerate(
-        zip(spec.link_lengths, spec.link_masses, spec.joint_ranges, strict=True)
-    ):
-        if i == 0:
+    parents = spec.link_parents
+
+    def body(i: int, depth: int) -> str:
+        """Link i's body with its joint and geoms, its child links nested inside."""
+        pad = "  " * depth
+        lo, hi = spec.joint_ranges[i]
+        if parents[i] < 0:
             pos = fmt(base)
             orient = f'quat="{fmt(link_frame_quat(spec.plane, spec.reference_direction))}"'
         else:
-            pos = fmt((spec.link_lengths[i - 1], 0, 0))
-            orient = ""
-        bodies.append(
-            f'{indent * (i + 2)}<body name="link{i + 1}" pos="{pos}" {orient}>\n'
-            f'{indent * (i + 3)}<joint name="q{i + 1}" type="hinge" axis="0 0 1" '
+            pos, orient = fmt((spec.link_lengths[parents[i]], 0, 0)), ""
+        children = "".join(body(j, depth + 1) for j in range(spec.n_links) if parents[j] == i)
+        return (
+            f'{pad}<body name="link{i + 1}" pos="{pos}" {orient}>\n'
+            f'{pad}  <joint name="q{i + 1}" type="hinge" axis="0 0 1" '
             f'range="{lo:.12g} {hi:.12g}" limited="true" damping="{spec.joint_damping}"/>\n'
-            f'{indent * (i + 3)}<geom name="link{i + 1}" type="capsule" '
-            f'fromto="0 0 0 {length:.12g} 0 0" size="{r:.4g}" mass="{mass:.12g}" '
-            f'material="arm"/>\n'
-            f'{indent * (i + 3)}<geom name="joint{i + 1}" type="cylinder" '
+            f'{pad}  <geom name="link{i + 1}" type="capsule" '
+            f'fromto="0 0 0 {spec.link_lengths[i]:.12g} 0 0" size="{r:.4g}" '
+            f'mass="{spec.link_masses[i]:.12g}" material="arm"/>\n'
+            f'{pad}  <geom name="joint{i + 1}" type="cylinder" '
             f'fromto="0 0 {-1.4 * r:.4g} 0 0 {1.4 * r:.4g}" size="{1.5 * r:.4g}" '
             f'mass="0" contype="0" conaffinity="0" material="joint"/>\n'
+            f"{children}{pad}</body>\n"
         )
-    closing = "".join(f"{indent * (i + 2)}</body>\n" for i in reversed(range(spec.n_links)))
-    chain = "".join(bodies) + closing
+
+    chain = body(0, 2)
 
     ref_geom = ""
     if spec.reference_length > 0:

@@ -221,6 +221,9 @@ def build_parser() -> argparse.ArgumentParser:
     clip.add_argument("--out", default="clips_out", help="output folder (default: %(default)s)")
     clip.set_defaults(func=cmd_clip)
 
+    from imimic_gym.clips.scenarios import SCENARIOS
+
+    one_link = [n for n in names if SCENARIOS[n].n_links == 1]
     evaluate = sub.add_parser(
         "eval", help="score estimators against the truth on held-out clips",
         description="Run each estimator over held-out clips (seeds from --first-seed) of each "
@@ -230,7 +233,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "and on.",
     )
     evaluate.add_argument("--scenario", nargs="+", default=["exp2-servo"],
-                          choices=[n for n in names if not n.startswith("chain")],
+                          choices=one_link,
                           help="one or more one-link scenarios (default: %(default)s)")
     evaluate.add_argument("--estimator", nargs="+", default=["don"],
                           choices=("don", "mog2", "camshift"), help="default: %(default)s")

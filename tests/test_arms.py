@@ -75,3 +75,28 @@ def test_link_tip_points_along_reference_plus_angle() -> None:
 def test_bad_arm_specs_are_named(kwargs: dict, message: str) -> None:
     with pytest.raises(ValueError, match=message):
         ArmSpec(**kwargs)
+
+
+def test_a_branching_arm_puts_both_fingers_at_the_end_of_link_one() -> None:
+    # The hand: a forearm, and a thumb and an index finger that both start at its end.
+    spec = ArmSpec(link_lengths=(0.3, 0.06, 0.08), link_masses=(0.8, 0.05, 0.05),
+                   joint_ranges=((-3.0, 3.0),) * 3, parents=(-1, 0, 0))
+    model = build_arm_model(spec)
+    data = mujoco.MjData(model)
+    data.qpos[:] = [0.0, math.pi / 2, -math.pi / 2]
+    mujoco.mj_kinematics(model, data)
+    wrist = data.xpos[model.body("link1").id] + [0.3, 0.0, 0.0]
+    assert np.allclose(data.xpos[model.body("link2").id], wrist)
+    assert np.allclose(data.xpos[model.body("link3").id], wrist)
+    # Reference along +x (image right): +90 degrees points up the image, -90 down.
+    thumb_mid = data.geom_xpos[model.geom("link2").id]
+    index_mid = data.geom_xpos[model.geom("link3").id]
+    assert np.allclose(thumb_mid - wrist, [0.0, 0.0, 0.03], atol=1e-9)
+    assert np.allclose(index_mid - wrist, [0.0, 0.0, -0.04], atol=1e-9)
+    assert spec.reach == pytest.approx(0.38)
+
+
+def test_parents_must_form_a_tree_rooted_at_the_base() -> None:
+    with pytest.raises(ValueError, match="parents must give link 0 the base"):
+        ArmSpec(link_lengths=(0.3, 0.1), link_masses=(1, 1), joint_ranges=((0, 1),) * 2,
+                parents=(0, -1))

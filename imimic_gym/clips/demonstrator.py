@@ -22,6 +22,7 @@ __all__ = ["MOVING_GROUP", "keypoint_names", "scene_mjcf", "workspace"]
 
 MOVING_GROUP = 1
 SHOULDER = np.array([0.21, -0.02, 1.42])  # the moving arm's shoulder, world frame
+ELBOW = SHOULDER + np.array([HUMAN_SEGMENTS[0], 0.0, 0.0])  # with the upper arm held out
 HIP_HEIGHT = 0.95
 SKIN, SHIRT, PANTS = "0.87 0.67 0.53 1", "0.22 0.36 0.66 1", "0.2 0.2 0.25 1"
 
@@ -29,18 +30,28 @@ SKIN, SHIRT, PANTS = "0.87 0.67 0.53 1", "0.22 0.36 0.66 1", "0.2 0.2 0.25 1"
 def keypoint_names(spec: ClipSpec) -> tuple[str, ...]:
     if spec.demonstrator == "human":
         return ("shoulder", "elbow", "wrist", "hand_tip")
+    if spec.demonstrator == "hand":
+        return ("elbow", "wrist", "thumb_tip", "index_tip")
     return ("pivot", *(f"joint{i + 2}" for i in range(spec.n_links - 1)), "tip")
 
 
 def _chain_points(spec: ClipSpec, angles: np.ndarray) -> np.ndarray:
-    """Keypoints in the arm plane (K, 2) metres from the base joint, for ``angles``."""
-    lengths = list(HUMAN_SEGMENTS) if spec.demonstrator == "human" else list(spec.link_lengths)
-    joints = np.zeros(len(lengths))
-    first = 1 if spec.demonstrator == "human" and spec.n_links == 1 else 0
-    joints[first : first + spec.n_links] = angles
-    direction = spec.reference_direction + np.cumsum(joints)
-    steps = np.stack([np.cos(direction), np.sin(direction)], axis=1) * np.array(lengths)[:, None]
-    return np.vstack([np.zeros(2), np.cumsum(steps, axis=0)])
+    """The base joint and every segment's end in the arm plane, (K, 2) metres, for
+    ``angles``: the geometry the workspace is measured from."""
+    if spec.demonstrator == "human":  # the whole arm; the joints sit on some segments
+        lengths, parents = list(HUMAN_SEGMENTS), (-1, 0, 1)
+        first = 1 if spec.n_links == 1 else 0
+        joints = np.zeros(3)
+        joints[first : first + spec.n_links] = angles
+    else:
+        lengths, parents, joints = list(spec.link_lengths), spec.link_parents, angles
+    direction, ends = [], []
+    for i, parent in enumerate(parents):
+        direction.append((direction[parent] if parent >= 0 else spec.reference_direction)
+                         + joints[i])
+        start = ends[parent] if parent >= 0 else np.zeros(2)
+        ends.append(start + lengths[i] * np.array([np.cos(direction[i]), np.sin(direction[i])]))
+    return np.vstack([np.zeros(2), *ends])
 
 
 def workspace(spec: ClipSpec) -> tuple[np.ndarray, float]:
@@ -53,9 +64,10 @@ def workspace(spec: ClipSpec) -> tuple[np.ndarray, float]:
     points = np.concatenate(samples)[1:]
     centre2d = (points.min(axis=0) + points.max(axis=0)) / 2
     radius = float(np.max(np.linalg.norm(points - centre2d, axis=1)))
-    if spec.demonstrator == "human":
-        return SHOULDER + np.array([centre2d[0], 0.0, centre2d[1]]), radius
-    return np.array([centre2d[0], centre2d[1], 0.024]), radius
+    if spec.demonstrator == "servo":
+        return np.array([centre2d[0], centre2d[1], 0.024]), radius
+    base = SHOULDER if spec.demonstrator == "human" else ELBOW
+    return base + np.array([centre2d[0], 0.0, centre2d[1]]), radius
 
 
 def _materials() -> str:
@@ -79,7 +91,7 @@ def _tiles(spec: ClipSpec) -> str:
     if spec.background == "plain":
         return ""
     tiles = []
-    if spec.demonstrator == "human":
+    if spec.demonstrator != "servo":
         size, (nx, nz) = 0.3, (14, 9)
         for i in range(nx):
             for k in range(nz):
@@ -98,12 +110,13 @@ def _tiles(spec: ClipSpec) -> str:
     return "\n    ".join(tiles)
 
 
-def _human_body(spec: ClipSpec) -> str:
-    """Torso, head, legs, the still arm, and the moving arm chain with its joints."""
-    s = SHOULDER - np.array([0.0, 0.0, HIP_HEIGHT])
+def _arm_chain(spec: ClipSpec, shoulder: np.ndarray) -> tuple[str, str]:
+    """The arm as a chain (upper arm, forearm, hand) with n_links joints: the MJCF that
+    opens its bodies, and the text that closes them."""
     segments = [("upper_arm", HUMAN_SEGMENTS[0], 0.045, "shirt"),
                 ("forearm", HUMAN_SEGMENTS[1], 0.037, "skin"),
                 ("hand", HUMAN_SEGMENTS[2], 0.033, "skin")]
+    s = shoulder
     first_joint = 1 if spec.n_links == 1 else 0
     chain, closing = "", ""
     for i, (name, length, radius, material) in enumerate(segments):
@@ -124,6 +137,48 @@ def _human_body(spec: ClipSpec) -> str:
         )
         closing += "</body>"
     chain += f'<site name="kp_hand_tip" pos="{HUMAN_SEGMENTS[2] + 0.033} 0 0" size="0.01"/>'
+    return chain, closing
+
+
+def _hand_tree(spec: ClipSpec, shoulder: np.ndarray) -> tuple[str, str]:
+    """The paper's experiment 4: the upper arm held out, the forearm (with the palm)
+    turning at the elbow, and the thumb and the index finger each turning at the wrist."""
+    forearm, thumb, index = spec.link_lengths
+    (lo1, hi1), (lo2, hi2), (lo3, hi3) = spec.joint_ranges
+    quat = fmt(link_frame_quat("vertical", spec.reference_direction))
+    moving = f'group="{MOVING_GROUP}"'
+    finger = (
+        '<body name="{name}" pos="{base} 0 0"><joint name="q{q}" axis="0 0 1" '
+        'range="{lo:.12g} {hi:.12g}"/><geom name="{name}" type="capsule" '
+        'fromto="0 0 0 {length} 0 0" size="{radius}" material="skin" {moving}/>'
+        '<site name="kp_{name}_tip" pos="{length} 0 0" size="0.005"/></body>'
+    )
+    chain = (
+        f'<body name="upper_arm" pos="{fmt(shoulder)}" quat="{quat}">'
+        f'<geom name="upper_arm" type="capsule" fromto="0 0 0 {HUMAN_SEGMENTS[0]} 0 0" '
+        f'size="0.045" material="shirt"/>'
+        f'<body name="forearm" pos="{HUMAN_SEGMENTS[0]} 0 0">'
+        f'<joint name="q1" axis="0 0 1" range="{lo1:.12g} {hi1:.12g}"/>'
+        f'<site name="kp_elbow" size="0.01"/>'
+        f'<geom name="forearm" type="capsule" fromto="0 0 0 {forearm - 0.06} 0 0" '
+        f'size="0.037" material="skin" {moving}/>'
+        f'<geom name="palm" type="box" pos="{forearm - 0.03} 0 0" size="0.035 0.03 0.012" '
+        f'material="skin" {moving}/>'
+        f'<site name="kp_wrist" pos="{forearm} 0 0" size="0.01"/>'
+        + finger.format(name="thumb", base=forearm, q=2, lo=lo2, hi=hi2, length=thumb,
+                        radius=0.011, moving=moving)
+        + finger.format(name="index", base=forearm, q=3, lo=lo3, hi=hi3, length=index,
+                        radius=0.010, moving=moving)
+    )
+    return chain, "</body></body>"
+
+
+def _human_body(spec: ClipSpec) -> str:
+    """Torso, head, legs, the still arm, and the moving arm chain with its joints."""
+    s = SHOULDER - np.array([0.0, 0.0, HIP_HEIGHT])
+    chain, closing = (_hand_tree(spec, s) if spec.demonstrator == "hand"
+                      else _arm_chain(spec, s))
+
     return f"""
     <body name="root" pos="0 0 0">
       <joint name="sway_x" type="slide" axis="1 0 0"/>
@@ -178,7 +233,7 @@ def _clutter(spec: ClipSpec, rng: np.random.Generator) -> str:
     shapes = []
     for i in range(7):
         colour = fmt((*rng.uniform(0.15, 0.95, 3), 1.0))
-        if spec.demonstrator == "human":
+        if spec.demonstrator != "servo":
             pos = (rng.uniform(-1.4, 1.6), 0.58, rng.uniform(0.4, 2.3))
             size = (rng.uniform(0.06, 0.2), 0.01, rng.uniform(0.06, 0.2))
         else:
@@ -194,8 +249,10 @@ def scene_mjcf(spec: ClipSpec, rng: np.random.Generator) -> str:
     """MJCF of the whole scene for ``spec``. ``rng`` places the clutter."""
     centre, radius = workspace(spec)
     light = spec.lighting
-    if spec.demonstrator == "human":
-        look = np.array([0.3, 0.0, 1.35])
+    if spec.demonstrator != "servo":
+        # The person's arm, or (filmed closer) the hand's workspace, in the middle.
+        look = (np.array([0.3, 0.0, 1.35]) if spec.demonstrator == "human"
+                else np.array([centre[0], 0.0, centre[2]]))
         camera = f'<camera name="film" pos="{fmt(look - (0, spec.camera_distance, 0))}" xyaxes="1 0 0 0 0 1" fovy="45"/>'
         backdrop = (
             '<geom name="wall" type="box" pos="0 0.6 1.5" size="6 0.005 4" material="wall"/>\n'
@@ -225,7 +282,7 @@ def scene_mjcf(spec: ClipSpec, rng: np.random.Generator) -> str:
         )
     distractor = ""
     if spec.background == "cluttered":
-        behind = np.array([0, 0.35, 0]) if spec.demonstrator == "human" else np.array([0, 0, distractor_size - 0.024])
+        behind = np.array([0, 0.35, 0]) if spec.demonstrator != "servo" else np.array([0, 0, distractor_size - 0.024])
         distractor = (
             f'<body name="distractor" mocap="true" pos="{fmt(centre + behind)}">'
             f'<geom name="distractor" type="sphere" size="{distractor_size}" material="distractor"/></body>'
@@ -273,5 +330,5 @@ def distractor_path(spec: ClipSpec, t: np.ndarray, rng: np.random.Generator) -> 
     b = 0.8 * radius * np.sin(2 * math.pi * t / periods[1] + phases[1])
     offsets = np.zeros((t.size, 3))
     offsets[:, 0] = a
-    offsets[:, 2 if spec.demonstrator == "human" else 1] = b
+    offsets[:, 2 if spec.demonstrator != "servo" else 1] = b
     return offsets

@@ -13,13 +13,15 @@ from imimic_gym.clips.motion import MOTION_PROFILES, MotionProfile
 
 __all__ = ["SCENARIOS", "ClipSpec", "get_scenario", "scenario_names"]
 
-Demonstrator = Literal["human", "servo"]
+Demonstrator = Literal["human", "servo", "hand"]
 Background = Literal["plain", "textured", "cluttered"]
 Occluder = Literal["none", "low", "high"]
 
 # Human segment lengths (m): upper arm, forearm, hand.
 HUMAN_SEGMENTS = (0.30, 0.27, 0.17)
 SERVO_LINK = 0.105  # the paper's paper link, 10.5 cm
+# The hand (paper experiment 4): forearm with palm, thumb, index finger (m).
+HAND_LINKS = (0.33, 0.06, 0.08)
 DEG = math.pi / 180
 
 
@@ -29,9 +31,12 @@ class ClipSpec:
 
     Attributes:
         demonstrator: ``"human"`` (a standing person filmed from the front, arm moving in
-            the image plane) or ``"servo"`` (the paper's servo arm filmed from above).
+            the image plane), ``"servo"`` (the paper's servo arm filmed from above) or
+            ``"hand"`` (the person's forearm, thumb and index finger: the paper's
+            experiment 4).
         n_links: moving links, 1 to 3. Human: 1 = forearm (elbow), 2 = + shoulder,
-            3 = + wrist. Servo: a chain of n paper links.
+            3 = + wrist. Servo: a chain of n paper links. Hand: 3 (forearm, and thumb and
+            index finger both on it).
         motion: ``"sinusoid"``, ``"spline"`` (smooth random) or ``"fast"`` (fast random).
         background: ``"plain"``, ``"textured"`` or ``"cluttered"`` (shapes on the wall and
             a moving distractor ball).
@@ -67,13 +72,16 @@ class ClipSpec:
                 f"n_links must be an integer from 1 to {MAX_LINKS}, got {self.n_links!r}"
             )
         for name, value, allowed in (
-            ("demonstrator", self.demonstrator, ("human", "servo")),
+            ("demonstrator", self.demonstrator, ("human", "servo", "hand")),
             ("motion", self.motion, MOTION_PROFILES),
             ("background", self.background, ("plain", "textured", "cluttered")),
             ("occluder", self.occluder, ("none", "low", "high")),
         ):
             if value not in allowed:
                 raise ValueError(f"{name} must be one of {allowed}, got {value!r}")
+        if self.demonstrator == "hand" and self.n_links != 3:
+            raise ValueError(f"the hand has 3 joints (forearm, thumb, index finger); "
+                             f"n_links must be 3, got {self.n_links}")
         if not 0.2 <= self.lighting <= 1.0:
             raise ValueError(f"lighting must be in [0.2, 1.0], got {self.lighting}")
         for name in ("height", "width", "n_frames"):
@@ -98,7 +106,15 @@ class ClipSpec:
 
     # Geometry that the demonstrator scene and the matching robot arm share.
     @property
+    def link_parents(self) -> tuple[int, ...]:
+        """Each moving link's parent (-1: the fixed reference). A chain, except the hand,
+        whose thumb and index finger both sit on the forearm."""
+        return (-1, 0, 0) if self.demonstrator == "hand" else tuple(range(-1, self.n_links - 1))
+
+    @property
     def link_lengths(self) -> tuple[float, ...]:
+        if self.demonstrator == "hand":
+            return HAND_LINKS
         if self.demonstrator == "servo":
             return (SERVO_LINK,) * self.n_links
         if self.n_links == 1:
@@ -110,6 +126,8 @@ class ClipSpec:
         """Joint limits in rad, shared by the demonstrator's motion and the robot."""
         if self.demonstrator == "servo":
             return ((-60 * DEG, 60 * DEG),) * self.n_links  # the paper's 120 degree servo
+        if self.demonstrator == "hand":  # forearm, thumb, index: the fingers never overlap
+            return ((0.0, 120 * DEG), (30 * DEG, 90 * DEG), (-30 * DEG, 20 * DEG))
         shoulder, elbow, wrist = (0.0, 150 * DEG), (0.0, 120 * DEG), (-60 * DEG, 60 * DEG)
         return ((elbow,), (shoulder, elbow), (shoulder, elbow, wrist))[self.n_links - 1]
 
@@ -118,13 +136,18 @@ class ClipSpec:
         """Image-plane direction (rad, CCW from image right) of the fixed reference link."""
         if self.demonstrator == "servo":
             return math.pi / 2  # the servo's zero mark points up the image
-        return 0.0 if self.n_links == 1 else -math.pi / 2  # upper arm out, or torso down
+        if self.demonstrator == "hand" or self.n_links == 1:
+            return 0.0  # the upper arm, held out sideways
+        return -math.pi / 2  # the torso, pointing down
 
     def robot_arm(self, control: Control = "position") -> ArmSpec:
         """A robot arm that matches this demonstrator's links, ranges and viewpoint."""
         if self.demonstrator == "servo":
             masses, damping, reference = (0.02,) * self.n_links, 2e-4, 0.0
             plane, radius = "horizontal", 0.006
+        elif self.demonstrator == "hand":
+            masses, damping, reference = (0.8, 0.05, 0.05), 2e-3, HUMAN_SEGMENTS[0]
+            plane, radius = "vertical", 0.018
         else:
             masses = (0.8,) if self.n_links == 1 else (1.2, 0.8, 0.4)[: self.n_links]
             damping, plane, radius = 0.05, "vertical", 0.025
@@ -141,6 +164,7 @@ class ClipSpec:
             control=control,
             link_radius=radius,
             max_torque=max_torque,
+            parents=self.link_parents,
         )
 
 
@@ -161,6 +185,9 @@ SCENARIOS: dict[str, ClipSpec] = {
                      sway=0.3, occluder=level)
             for level in ("none", "low", "high")
         ),
+        # Paper experiment 4: forearm, thumb and index finger, filmed closer.
+        ClipSpec(name="exp4-hand", demonstrator="hand", n_links=3, motion="spline",
+                 camera_distance=1.2),
         ClipSpec(name="chain-2", n_links=2, motion="spline", background="textured"),
         ClipSpec(name="chain-3", n_links=3, motion="spline", background="textured"),
     )

@@ -32,16 +32,21 @@ def test_keypoints_give_the_true_angles(clips: dict, name: str) -> None:
     clip = clips[name]
     spec = get_scenario(name)
     kp = clip.truth.keypoints.astype(np.float64)
-    if spec.demonstrator == "human":
-        chain = kp[:, :3] if spec.n_links < 3 else kp[:, :4]
-        first = 1 if spec.n_links == 1 else 0
+    # Each moving link as (start keypoint, end keypoint), and its parent link.
+    if spec.demonstrator == "hand":
+        links = [(0, 1), (1, 2), (1, 3)]  # elbow-wrist, wrist-thumb tip, wrist-index tip
+    elif spec.demonstrator == "human":
+        first = 1 if spec.n_links == 1 else 0  # the upper arm is fixed for one link
+        links = [(first + i, first + i + 1) for i in range(spec.n_links)]
     else:
-        chain, first = kp, 0
-    vectors = np.diff(chain, axis=1)
+        links = [(i, i + 1) for i in range(spec.n_links)]
+    vectors = np.stack([kp[:, b] - kp[:, a] for a, b in links], axis=1)
     directions = np.arctan2(-vectors[..., 1], vectors[..., 0])  # CCW, image y is down
-    reference = np.full((len(kp), 1), spec.reference_direction)
-    absolute = np.concatenate([reference, directions], axis=1)
-    relative = np.diff(absolute, axis=1)[:, first:first + spec.n_links]
+    parents = spec.link_parents
+    relative = np.stack([
+        directions[:, i] - (directions[:, p] if p >= 0 else spec.reference_direction)
+        for i, p in enumerate(parents)
+    ], axis=1)
     error = (relative - clip.truth.angles + np.pi) % (2 * np.pi) - np.pi
     # Body sway rolls the whole figure, so the first joint carries up to 3 degrees of it.
     tolerance = 1.0 + (3.0 if spec.sway else 0.0)
