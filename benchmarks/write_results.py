@@ -215,7 +215,9 @@ Against issue 3's acceptance:
   `exp3-forearm-high`. CamShift wins on `default`, where skin against a plain wall is an
   easy colour to follow, and fails wherever the arm has no distinct hue (the paper link);
   MOG2 is slightly better than DON on `exp3-forearm-none`.
-- Multi-link DON (2-link chain) and `exp4-hand`: not built yet.
+- `exp4-hand` (the paper's experiment 4: forearm, thumb and index finger): the scenario
+  and its matching branching robot exist (the oracle table above tracks it); DON for its
+  three joints, like DON for the 2-link chain, is not built yet, so it has no DON row.
 """]
     (HERE / "RESULTS.md").write_text("".join(out))
 
