@@ -133,6 +133,8 @@ class LinkTracker:
         self.lost_for = 0
 
     def pivot(self) -> np.ndarray | None:
+        """The pivot in working pixels: the known one, else the estimate (None until the
+        estimate is agreed)."""
         return self.known_pivot if self.known_pivot is not None else self.pivots.pivot()
 
     def lines(self, mask: np.ndarray) -> np.ndarray:
