@@ -65,3 +65,23 @@ def test_bench_don_reports_every_estimator_per_resolution() -> None:
     for key in ("don_ms", "mog2_estimator_ms", "camshift_estimator_ms", "mog2_raw_ms"):
         assert row[key] > 0
     assert row["ratio_mog2"] == pytest.approx(row["don_ms"] / row["mog2_raw_ms"])
+
+
+def test_bench_env_and_render_report_every_figure() -> None:
+    from imimic_gym.bench import bench_env, bench_render
+    from imimic_gym.clips.scenarios import scenario_names
+
+    env = bench_env(steps=20, repeats=1)
+    assert env["ratio"] == pytest.approx(env["imitate_steps_per_s"] / env["reacher_steps_per_s"])
+    assert env["imitate_steps_per_s"] > 0 and env["reacher_steps_per_s"] > 0
+    render = bench_render(n_frames=2, height=60, width=80, repeats=1)
+    assert set(render) == {*scenario_names(), "mujoco_renderer_rgb"}
+    assert all(fps > 0 for fps in render.values())
+
+
+def test_scenarios_lists_every_scenario(capsys) -> None:
+    from imimic_gym.clips.scenarios import scenario_names
+
+    assert main(["scenarios"]) == 0
+    listed = [line.split()[0] for line in capsys.readouterr().out.splitlines()]
+    assert listed == scenario_names()
