@@ -337,10 +337,13 @@ class FrameStream:
         if index < oldest:
             raise IndexError(f"{self.reader.name}: frame {index} has left the stream's buffer "
                              f"(frames {oldest}-{self._next_index - 1}); a stream cannot rewind")
+        if index == self._length - 1:
+            self.close()  # the last frame: release the capture now, not at garbage collection
         return self._frames[index - oldest]
 
     def __iter__(self) -> Iterator[np.ndarray]:
-        index = 0
+        """The frames from the oldest one still buffered to the end of the stream."""
+        index = self._next_index - len(self._frames)
         while index < self._length:
             try:
                 yield self[index]
@@ -349,6 +352,8 @@ class FrameStream:
             index += 1
 
     def close(self) -> None:
+        """Stop reading and release the capture (also done when the stream ends)."""
+        self._iterator.close()
         self.reader.close()
 
 
