@@ -46,6 +46,7 @@ __all__ = [
 DEFAULT_REFERENCE_DIRECTION = -math.pi / 2  # image down (CCW from image right)
 DEFAULT_JOINT_RANGE = (-math.pi / 3, math.pi / 3)  # the paper's 120-degree servo, centred
 LIVE_FPS = 30.0  # a camera that does not report its rate is taken to run at this
+UNBOUNDED = 2**31 - 1  # the nominal length of a stream whose length is unknown (frames)
 
 
 class VideoWriteError(OSError):
@@ -287,8 +288,9 @@ class FrameStream:
     ``buffer`` frames are kept, so memory stays bounded however long the stream runs.
     Asking for a frame that has left the buffer raises IndexError (a live stream cannot
     rewind); asking past the end raises `StreamEndedError`. ``len()`` is the container's
-    frame count for files and ``max_frames`` for live sources; a stream may end sooner.
-    The first frame is read on construction (it fixes the shape).
+    frame count (capped at ``max_frames``), else ``max_frames``, else `UNBOUNDED`
+    (``length_known`` is False: a live camera runs until it stops); a stream may end
+    sooner. The first frame is read on construction (it fixes the shape).
     """
 
     dtype = np.dtype(np.uint8)
@@ -305,11 +307,10 @@ class FrameStream:
         self._pull()
         first = self._frames[0]
         limit = reader.frame_count if reader.frame_count is not None else max_frames
-        if limit is None:
-            raise ValueError(f"{reader.name} is live: give max_frames to bound the stream")
-        if max_frames is not None:
+        if limit is not None and max_frames is not None:
             limit = min(limit, max_frames)
-        self._length = max(1, limit)
+        self.length_known = limit is not None
+        self._length = max(1, limit) if limit is not None else UNBOUNDED
         self.shape = (self._length, *first.shape)
 
     def _pull(self) -> bool:
@@ -365,14 +366,19 @@ def stream_video(
     joint_ranges: Sequence[tuple[float, float]] | None = None,
     fps: float | None = None,
     max_frames: int | None = None,
+    max_seconds: float | None = None,
     buffer: int = 32,
 ) -> Clip:
     """A `Clip` over a file, camera or URL whose frames are a `FrameStream`: bounded
-    memory, forward-only, no truth. Arguments as in `load_video`; ``max_frames`` is
-    required for live sources (it is the clip's nominal length). Close it with
+    memory, forward-only, no truth. Arguments as in `load_video`; ``max_frames`` bounds
+    the run, as does ``max_seconds`` of footage at the source's fps (a live source
+    without either runs until it stops). Close it with
     ``clip.frames.close()`` (the capture is also released when the stream ends)."""
     ranges = tuple(joint_ranges) if joint_ranges is not None else (DEFAULT_JOINT_RANGE,) * n_links
     reader = VideoReader(source, fps=fps).open()
+    if max_seconds is not None:
+        limit = max(1, round(max_seconds * reader.fps))
+        max_frames = limit if max_frames is None else min(max_frames, limit)
     try:
         frames = FrameStream(reader, buffer=buffer, max_frames=max_frames)
     except BaseException:
