@@ -101,9 +101,11 @@ def overlay(image: np.ndarray, estimate: Any, name: str) -> np.ndarray:
     text = f"{name} {angle} deg  eta {estimate.trust:.2f}" + (" pred" if estimate.predicted
                                                                else "")
     scale = max(0.4, image.shape[0] / 600)
-    for colour, width in (((0, 0, 0), 3), ((255, 255, 255), 1)):
-        cv2.putText(image, text, (6, int(22 * scale)), cv2.FONT_HERSHEY_SIMPLEX, scale, colour,
-                    width, cv2.LINE_AA)
+    (width, height), base = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, scale, 1)
+    # On a dark box: readable over any footage, and after the video is scaled down.
+    cv2.rectangle(image, (0, 0), (width + 12, height + base + 10), (0, 0, 0), -1)
+    cv2.putText(image, text, (6, height + 5), cv2.FONT_HERSHEY_SIMPLEX, scale,
+                (255, 255, 255), 1, cv2.LINE_AA)
     return image
 
 
