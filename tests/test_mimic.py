@@ -10,23 +10,10 @@ import numpy as np
 import pytest
 
 from imimic_gym.cli import main
-from imimic_gym.clips.cache import load_clip
-from imimic_gym.clips.scenarios import get_scenario
 from imimic_gym.clips.video import VideoFormatError, stream_video, write_video
 from imimic_gym.metrics import angle_rmse_deg
 from imimic_gym.mimic import run_mimic
 from imimic_gym.servo import ServoBridge
-
-
-@pytest.fixture(scope="module")
-def servo_clip():
-    return load_clip(get_scenario("exp2-servo", n_frames=90), progress=False)
-
-
-@pytest.fixture(scope="module")
-def servo_mp4(servo_clip, tmp_path_factory):
-    return write_video(tmp_path_factory.mktemp("mimic") / "servo.mp4", servo_clip.frames,
-                       servo_clip.fps)
 
 
 def read_csv(path) -> list[dict[str, str]]:

@@ -27,17 +27,6 @@ from imimic_gym.metrics import angle_rmse_deg
 WARM_UP = 15  # frames: DON sees nothing before the arm has moved
 
 
-@pytest.fixture(scope="module")
-def servo_clip():
-    return load_clip(get_scenario("exp2-servo", n_frames=90), progress=False)
-
-
-@pytest.fixture(scope="module")
-def servo_mp4(servo_clip, tmp_path_factory):
-    return write_video(tmp_path_factory.mktemp("video") / "servo.mp4", servo_clip.frames,
-                       servo_clip.fps)
-
-
 def don_rmse(frames, clip) -> float:
     don = DON(fps=clip.fps, reference_direction=clip.meta["reference_direction"],
               joint_range=tuple(clip.meta["joint_ranges"][0]))
