@@ -185,15 +185,6 @@ def cmd_mimic(args: argparse.Namespace) -> int:
 
     source = args.video if args.video is not None else args.camera
     live = args.video is None
-    low, high = args.joint_range
-    clip = stream_video(
-        source, n_links=args.links, reference_direction=math.radians(args.reference_direction),
-        joint_ranges=[(math.radians(low), math.radians(high))] * args.links, fps=args.fps,
-        max_seconds=args.max_seconds,
-    )
-    print(f"imimic mimic: {clip.meta['path']} ({clip.width}x{clip.height}, {clip.fps:g} fps"
-          f"{', live' if live else f', {len(clip)} frames'}), estimator {args.estimator}, "
-          f"control {args.control}" + (" (Ctrl-C stops and keeps the outputs)" if live else ""))
     servo = None
     if args.serial:
         from imimic_gym.servo import ServoBridge
@@ -202,9 +193,25 @@ def cmd_mimic(args: argparse.Namespace) -> int:
                             zero_deg=args.servo_zero)
         print(f"  servo bridge on {args.serial} at {args.baud} baud "
               f"({'open' if servo.connected else 'not open yet: retrying'})")
+    low, high = args.joint_range
+    try:
+        clip = stream_video(
+            source, n_links=args.links,
+            reference_direction=math.radians(args.reference_direction),
+            joint_ranges=[(math.radians(low), math.radians(high))] * args.links, fps=args.fps,
+            max_seconds=args.max_seconds,
+        )
+    except BaseException:
+        if servo is not None:
+            servo.close()
+        raise
+    print(f"imimic mimic: {clip.meta['path']} ({clip.width}x{clip.height}, {clip.fps:g} fps"
+          f"{', live' if live else f', {len(clip)} frames'}), estimator {args.estimator}, "
+          f"control {args.control}" + (" (Ctrl-C stops and keeps the outputs)" if live else ""))
     params = {"pivot": tuple(args.pivot)} if args.pivot else {}
     summary = run_mimic(clip, args.out, estimator=args.estimator, control=args.control,
-                        estimator_params=params, servo=servo)
+                        estimator_params=params, servo=servo,
+                        realtime=not live and (args.realtime or servo is not None))
     out = Path(args.out)
     print(f"{summary['ended']}: wrote {out / 'mimic.mp4'}, {out / 'angles.png'}, "
           f"{out / 'mimic.csv'}, {out / 'mimic.json'}")
@@ -266,6 +273,10 @@ def _add_mimic(sub: argparse._SubParsersAction) -> None:
                        help="the servo's angle range, degrees (default: 0 120)")
     mimic.add_argument("--servo-zero", type=float, default=60.0, metavar="DEG",
                        help="servo angle of joint angle 0 (default: %(default)s)")
+    mimic.add_argument("--realtime", action="store_true",
+                       help="play a file at its own frame rate rather than as fast as "
+                            "possible (always on with --serial: the servo moves at the "
+                            "person's speed)")
     mimic.add_argument("--out", default="mimic_out", help="output folder (default: %(default)s)")
     mimic.set_defaults(func=cmd_mimic)
 

@@ -113,13 +113,15 @@ def overlay(image: np.ndarray, estimate: Any, name: str) -> np.ndarray:
 
 def mimic_frames(env: gym.Env, controller: Any, log: MimicLog, rows: Any = None,
                  servo: Any = None, name: str = "estimate",
-                 on_frame: Callable[[MimicLog], None] | None = None) -> Iterator[np.ndarray]:
+                 on_frame: Callable[[MimicLog], None] | None = None,
+                 realtime: bool = False) -> Iterator[np.ndarray]:
     """Run ``controller`` on the estimator-wrapped ``env`` to the end of its clip (or of
     the stream), yielding each side-by-side frame (H, 2W, 3) uint8 RGB as it is made.
 
     Per frame: the estimate and robot angle go into ``log``, a row into the csv writer
     ``rows`` (flushed), the joint command to ``servo`` (a `ServoBridge`), and ``on_frame``
     is called (progress display). A stream that ends early ends the run, not an error.
+    ``realtime`` waits until frame i's time (i / fps after the first) before reading it.
     """
     inner = env.unwrapped
     n = inner.arm.n_links
@@ -159,8 +161,11 @@ def mimic_frames(env: gym.Env, controller: Any, log: MimicLog, rows: Any = None,
         controller.reset()
     action = record(obs, info, started)
     yield overlay(env.render(), env.last_estimate, name)
-    done = False
+    done, first = False, time.perf_counter()
     while not done:
+        if realtime:
+            time.sleep(max(0.0, first + (info["frame_index"] + 1) / log.fps
+                           - time.perf_counter()))
         started = time.perf_counter()
         try:
             obs, _, terminated, truncated, info = env.step(action)
@@ -181,10 +186,12 @@ def steady_rate(log: MimicLog) -> float:
 
 def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str = "position",
               estimator_params: dict[str, Any] | None = None, servo: Any = None,
-              progress: bool = True) -> dict[str, Any]:
+              progress: bool = True, realtime: bool = False) -> dict[str, Any]:
     """Mimic the arm in ``clip`` (a `Clip`, typically from `stream_video`) and write the
-    outputs into ``out`` (see the module docstring). Returns the summary also written to
-    ``mimic.json``: frames, wall time, frames/s, latency, mean eta, how the run ended."""
+    outputs into ``out`` (see the module docstring). ``realtime`` paces a file to its own
+    frame rate (a servo then moves at the person's speed; a camera paces itself). Returns
+    the summary also written to ``mimic.json``: frames, wall time, frames/s, latency, mean
+    eta, how the run ended. The clip's stream and ``servo`` are closed at the end."""
     from tqdm.auto import tqdm
 
     from imimic_gym.controllers import EstimateTarget, PDController
@@ -200,12 +207,17 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
     live = clip.meta.get("source") == "camera"
     known_length = getattr(clip.frames, "length_known", True)
     why = f"{estimator.upper()} (window {needed - 1})"
-    if not live and known_length:
-        require_frames(len(clip), needed, source, why)
+    try:
+        if not live and known_length:
+            require_frames(len(clip), needed, source, why)
+        env = wrap(gym.make("ImitateVideo-v0", clip=clip, control=control,
+                            render_mode="rgb_array"), params)
+    except BaseException:  # release the camera or file before the error goes up
+        if hasattr(clip.frames, "close"):
+            clip.frames.close()
+        raise
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    env = wrap(gym.make("ImitateVideo-v0", clip=clip, control=control,
-                        render_mode="rgb_array"), params)
     controller = PDController(env, EstimateTarget(env))
     log = MimicLog(fps=float(clip.fps))
     bar = tqdm(total=len(clip) if known_length else None, unit="frame", disable=not progress,
@@ -227,7 +239,8 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
         rows.writerow(csv_header(env.unwrapped.arm.n_links))
         try:
             write_video(out / "mimic.mp4",
-                        mimic_frames(env, controller, log, rows, servo, estimator, show),
+                        mimic_frames(env, controller, log, rows, servo, estimator, show,
+                                     realtime),
                         clip.fps)
         except KeyboardInterrupt:
             ended = "stopped by Ctrl-C"

@@ -70,6 +70,24 @@ def test_a_stream_that_ends_early_keeps_everything_written(tmp_path) -> None:
     assert clip.frames.reader.capture is None
 
 
+def test_a_live_source_runs_until_it_stops(servo_mp4, tmp_path) -> None:
+    # A URL is opened as a live source (like a network camera): no length, no rewinding;
+    # when frames stop coming the run ends as a camera that disappeared.
+    clip = stream_video(f"file://{servo_mp4}", reference_direction=math.pi / 2)
+    assert clip.meta["source"] == "camera" and not clip.frames.length_known
+    summary = run_mimic(clip, tmp_path, progress=False)
+    assert summary["ended"] == "camera stopped" and summary["frames"] == 90
+    assert len(read_csv(tmp_path / "mimic.csv")) == 90
+    assert clip.frames.reader.capture is None
+
+
+def test_a_wrong_link_count_is_refused_and_the_file_released(servo_mp4, tmp_path) -> None:
+    clip = stream_video(servo_mp4, n_links=2)
+    with pytest.raises(ValueError, match="DON handles one moving link so far"):
+        run_mimic(clip, tmp_path, progress=False)
+    assert clip.frames.reader.capture is None
+
+
 class InterruptingServo:
     """Stands in for the user pressing Ctrl-C: the 20th joint command raises
     KeyboardInterrupt inside the loop, where a real SIGINT would land."""
