@@ -53,11 +53,11 @@ from imimic_gym.metrics import wrap_angle
 __all__ = ["DON", "FrameShapeError", "SlidingExtrema"]
 
 def _any_channel_above(difference: np.ndarray, tau: int) -> np.ndarray:
-    """(H, W) bool: some colour channel of ``difference`` exceeds ``tau``. Thresholding each
-    channel, then converting to grey (positive exactly where any channel passed), is
-    three SIMD passes; numpy's max over the channel axis is 30x slower."""
+    """(H, W) uint8, nonzero where some colour channel of ``difference`` exceeds ``tau``.
+    Thresholding each channel, then converting to grey (positive exactly where any channel
+    passed), is two SIMD passes; numpy's max over the channel axis is 30x slower."""
     _, passed = cv2.threshold(difference, tau, 255, cv2.THRESH_BINARY)
-    return cv2.cvtColor(passed, cv2.COLOR_RGB2GRAY) > 0
+    return cv2.cvtColor(passed, cv2.COLOR_RGB2GRAY)
 
 
 class SlidingExtrema:
@@ -176,16 +176,19 @@ class DON:
 
     # Layers 2 and 3: frame differences and object identification ----------------------
     def _moving_pixels(self, image: np.ndarray) -> np.ndarray:
-        """l_1 = (union_p delta2_p) & delta1_1 (paper Eq. OL), binary uint8."""
+        """l_1 = (union_p delta2_p) & delta1_1 (paper Eq. OL), (h, w) uint8, nonzero where
+        the pixel moves."""
         tau = self.threshold
         # DON layer 2: frame difference, paper Eqs. (f1), (f2), binarised.
-        # A pixel differs when any colour channel differs by more than tau.
+        # A pixel differs when any colour channel differs by more than tau; f_t differs
+        # from some f_{t-p} exactly when it rises above the window's minimum or falls below
+        # its maximum, so one saturating difference each, merged, covers every delta2_p.
         delta1 = _any_channel_above(cv2.absdiff(image, self.previous), tau)
         low, high = self.extrema.extrema()
-        union = _any_channel_above(cv2.subtract(image, low), tau) | _any_channel_above(
-            cv2.subtract(high, image), tau)
+        union = _any_channel_above(
+            cv2.max(cv2.subtract(image, low), cv2.subtract(high, image)), tau)
         # DON layer 3: object identification, paper Eq. (OL).
-        return delta1 & union
+        return cv2.bitwise_and(delta1, union)
 
     # Layer 4b: trust factor -------------------------------------------------------------
     def trust_factor(self) -> float:
@@ -258,7 +261,7 @@ class DON:
         self.last_mask = mask
         self.previous = image
         self.extrema.push(image)
-        area = int(np.count_nonzero(mask))
+        area = cv2.countNonZero(mask)
 
         if area < self.min_area:
             self.areas.append(None)

