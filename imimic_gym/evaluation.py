@@ -37,8 +37,9 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
 
     Per episode: angle RMSE (deg) over all frames and after ``WARM_UP_S``, lag (frames,
     cross-correlation peak, after warm-up), mean trust eta, and where the clip has
-    occluded frames (over 10% of the moving links hidden), the RMSE on those frames with
-    the prediction layer off and on (DON only).
+    occluded frames (over 10% of the moving links hidden), the mean eta on those frames
+    and on the others, and the RMSE on them with the prediction layer off and on (DON
+    only).
     """
     spec = get_scenario(scenario)
     if spec.n_links != 1:
@@ -61,6 +62,10 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
         }
         occluded = clip.truth.occlusion > 0.1
         row["occluded_frames"] = int(occluded.sum())
+        if occluded.any() and not occluded.all():
+            trust = np.array([e.trust for e in estimates])
+            row["mean_trust_occluded"] = float(trust[occluded].mean())
+            row["mean_trust_clear"] = float(trust[~occluded].mean())
         if occluded.any() and estimator == "don":
             on = make_estimator("don", clip.meta, clip.fps, spec.joint_ranges[0],
                                 trust_threshold=PREDICTION_ON).run(clip.frames)
@@ -70,7 +75,8 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
             row["rmse_occluded_deg_prediction_on"] = angle_rmse_deg(with_prediction[occluded],
                                                                     truth[occluded])
         rows.append(row)
-    summary = {key: float(np.mean([r[key] for r in rows])) for key in rows[0]
-               if key not in ("seed",)}
+    # Occlusion figures exist only for clips with occluded frames: average where present.
+    keys = dict.fromkeys(key for row in rows for key in row if key != "seed")
+    summary = {key: float(np.mean([r[key] for r in rows if key in r])) for key in keys}
     return {"scenario": scenario, "estimator": estimator, "episodes": episodes,
             "first_seed": first_seed, "warm_up_s": WARM_UP_S, "mean": summary, "rows": rows}

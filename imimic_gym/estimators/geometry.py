@@ -162,7 +162,10 @@ class LinkTracker:
         self, lines: np.ndarray, pivot: np.ndarray, last: float | None
     ) -> tuple[float, float] | None:
         """The location s: the link's direction (rad, CCW, image up), from the moving
-        regions that lie along a ray from the pivot, and those regions' area (px).
+        regions that lie along a ray from the pivot, and the link's visible length (px):
+        the radial span those regions cover, from the innermost region's inner end to the
+        outermost one's tip (a region's half-length is 1.7 standard deviations along its
+        axis, as for a uniform bar).
 
         A region belongs to the link when it is clearly elongated and its principal axis
         points at the pivot within ~14 degrees (it lies along a ray: the link's leading and
@@ -203,9 +206,11 @@ class LinkTracker:
         weights = (length * area)[keep]
         mean = math.atan2(float(np.sum(weights * np.sin(angles))),
                           float(np.sum(weights * np.cos(angles))))
-        reach = float(np.max(distance[keep] + 1.7 * length[keep]))
+        outer = distance[keep] + 1.7 * length[keep]
+        inner = np.maximum(distance[keep] - 1.7 * length[keep], 0.0)
+        reach = float(outer.max())
         self.radius = reach if self.radius is None else 0.9 * self.radius + 0.1 * reach
-        return mean, float(area[keep].sum())
+        return mean, reach - float(inner.min())
 
     def before_pivot(self, lines: np.ndarray) -> float | None:
         """Until the pivot is found: the longest elongated region's axis (rad), pointed
