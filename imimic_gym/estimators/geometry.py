@@ -18,6 +18,8 @@ from imimic_gym.metrics import wrap_angle
 
 __all__ = ["LinkTracker", "PivotEstimator", "component_lines"]
 
+RANGE_MARGIN_DEG = 20.0  # how far past its joint range a region may still be the link
+
 
 def component_lines(mask: np.ndarray, min_area: int) -> np.ndarray:
     """Principal axis of every 8-connected component of ``mask`` with at least
@@ -170,8 +172,9 @@ class LinkTracker:
         A region belongs to the link when it is clearly elongated and its principal axis
         points at the pivot within ~14 degrees (it lies along a ray: the link's leading and
         trailing slivers do, a distractor's blob seldom does), it is no farther than 1.6
-        link radii, and it lies within 45 degrees of the last direction (a gate dropped
-        after 5 frames without a match, so a wrong lock cannot last). The direction is the
+        link radii, it lies where the joint can turn (its range, if known, plus 20
+        degrees), and within 45 degrees of the last direction (a gate dropped after 5
+        frames without a match, so a wrong lock cannot last). The direction is the
         mean of those regions' axes weighted by length times area, pointed away from the
         pivot: an axis does not tilt when the pivot is a few pixels off, as a
         pivot-to-pixel angle would.
@@ -190,6 +193,14 @@ class LinkTracker:
         if self.radius is not None:
             keep &= distance < 1.6 * self.radius
         centre_angle = np.arctan2(-offset[:, 1], offset[:, 0])  # image y points down
+        if self.joint_range is not None:
+            # The link cannot point where its joint cannot turn (with a margin for a
+            # pivot a few pixels off): an occluder's edge or a flipped reading there is
+            # not the link.
+            lo, hi = self.joint_range
+            middle = self.reference_direction + (lo + hi) / 2
+            keep &= (np.abs(wrap_angle(centre_angle - middle))
+                     < (hi - lo) / 2 + math.radians(RANGE_MARGIN_DEG))
         if last is not None and self.lost_for < 5:
             keep &= np.abs(wrap_angle(centre_angle - last)) < math.radians(45)
         if not keep.any():

@@ -100,6 +100,23 @@ def test_an_occluder_hiding_the_outer_part_of_the_link_gives_its_eta(
     assert low <= min(trust[41:49]) and max(trust[41:49]) <= high
 
 
+def test_a_region_where_the_joint_cannot_turn_is_not_the_link() -> None:
+    """A second bar turns the other way on the far side of the pivot, along a ray through
+    it: without a joint range it can pass for the link (a flipped reading), with the range
+    it cannot."""
+    angles = sweep(3.0, 60, start_deg=40)
+    frames = []
+    for angle in angles:
+        frame = bar_frame(angle)
+        away = np.array([math.cos(-angle - 0.3), math.sin(angle + 0.3)])
+        cv2.line(frame, tuple(np.rint(PIVOT + 20 * away).astype(int)),
+                 tuple(np.rint(PIVOT + 110 * away).astype(int)), (255, 255, 255), 12)
+        frames.append(frame)
+    estimates = DON(fps=FPS, joint_range=(0.0, math.pi)).run(frames)
+    errors = [abs(math.degrees(e.angles[0] - a)) for e, a in zip(estimates, angles, strict=True)]
+    assert max(errors[10:30]) < 3.0 and max(errors[-10:]) < 3.0
+
+
 def test_motion_stopping_holds_the_last_angle() -> None:
     angles = sweep(3.0, 40, start_deg=40)
     frames = [bar_frame(a) for a in angles] + [bar_frame(angles[-1])] * 10
