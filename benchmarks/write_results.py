@@ -223,11 +223,13 @@ Against issue 3's acceptance:
   refuses (a round blob has no direction, and the distractor ball is one too). On the
   occluder clips the pivot is often never agreed, or agreed where the board's edges
   cross (one clip locked it at the image's top border), and until then DON follows the
-  longest moving region, often the board's vertical edge. Refusing regions where the
-  joint cannot turn (its range plus 20 degrees, in the link geometry that every
-  estimator shares) removed the flipped readings: DON's settled RMSE over these ten
-  clips went from 16.1 / 58.2 / 49.4 degrees (none / low / high occlusion; the same
-  command on the commit before) to the figures above, and the baselines gained as much. Tried and not kept, each better on
+  longest moving region, often the board's vertical edge. Using the joint's range in
+  the link geometry that every estimator shares (a region must lie where the joint can
+  turn, its range plus 20 degrees; a line crossing counts toward the pivot only if both
+  regions lie in that fan seen from it) removed the flipped readings and many wrong
+  pivots: DON's settled RMSE over these ten clips went from 16.1 / 58.2 / 49.4 degrees
+  (none / low / high occlusion; the same command on the commit before) to the figures
+  above, and the baselines gained as much. Tried and not kept, each better on
   some clips and worse on others: a bearing-only reading from compact regions near the
   last direction, and dropping the pivot after 15 moving frames without the link.
 - Trust factor strictly decreasing from none to low to high occlusion:

@@ -65,9 +65,16 @@ class PivotEstimator:
     all pairs of 40 lines costs as much as the rest of a frame). The first pivot is only
     taken when two solves ``refresh`` lines apart agree within ``agree_px``: a pivot made
     of a sweeping occluder's edges moves with the occluder, the real one stays put.
+
+    ``directions`` (middle, half-width), rad: where the link can point. A crossing only
+    counts if both regions lie, seen from it, within that fan: the link's own regions
+    always do about the true pivot, while an occluder's edge crossing the link does so
+    by chance.
     """
 
-    def __init__(self, memory: int = 40, refresh: int = 10, agree_px: float = 4.0) -> None:
+    def __init__(self, memory: int = 40, refresh: int = 10, agree_px: float = 4.0,
+                 directions: tuple[float, float] | None = None) -> None:
+        self.directions = directions
         self.lines: deque[np.ndarray] = deque(maxlen=memory)
         self.refresh, self.agree_px = refresh, agree_px
         self._new, self._stale = 0, False
@@ -111,6 +118,17 @@ class PivotEstimator:
         along_i = (delta[:, 0] * direction[j, 1] - delta[:, 1] * direction[j, 0]) / cross
         points = centre[i] + along_i[:, None] * direction[i]
         weights = weight[i] * weight[j]
+        if self.directions is not None:
+            # Both regions must lie, seen from the crossing, where the link can point.
+            middle, half_width = self.directions
+            ok = np.ones(len(points), dtype=bool)
+            for k in (i, j):
+                offset = centre[k] - points
+                bearing = np.arctan2(-offset[:, 1], offset[:, 0])
+                ok &= np.abs(wrap_angle(bearing - middle)) < half_width
+            if np.count_nonzero(ok) < 20:
+                return None
+            points, weights = points[ok], weights[ok]
         point = np.array([np.median(points[:, 0]), np.median(points[:, 1])])
         for radius in (16.0, 8.0, 4.0, 4.0):  # shrinking mean shift toward the mode
             near = np.hypot(*(points - point).T) < radius
@@ -134,7 +152,12 @@ class LinkTracker:
                  joint_range: tuple[float, float] | None = None, min_area: int = 12) -> None:
         self.reference_direction, self.known_pivot = reference_direction, pivot
         self.joint_range, self.min_area = joint_range, min_area
-        self.pivots = PivotEstimator()
+        directions = None
+        if joint_range is not None:
+            lo, hi = joint_range
+            directions = (reference_direction + (lo + hi) / 2,
+                          (hi - lo) / 2 + math.radians(RANGE_MARGIN_DEG))
+        self.pivots = PivotEstimator(directions=directions)
         self.radius: float | None = None
         self._radius_pivot: np.ndarray | None = None
         self.lost_for = 0
