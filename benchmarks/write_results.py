@@ -25,7 +25,7 @@ def table(header: list[str], rows: list[list[str]]) -> str:
 
 def main() -> None:
     env, step, oracle = load("env"), load("step_profile"), load("oracle")
-    don, evaluation = load("don"), load("eval")
+    don, evaluation, depth = load("don"), load("eval"), load("eval_depth")
     m = env["machine"]
     mean = {(r["scenario"], r["estimator"]): r for r in evaluation}
 
@@ -204,6 +204,18 @@ and on (trust threshold 0.3):
        [[f"`{r['scenario']}`", f"{r['mean']['rmse_occluded_deg_prediction_off']:.1f}",
          f"{r['mean']['rmse_occluded_deg_prediction_on']:.1f}"]
         for r in evaluation if "rmse_occluded_deg_prediction_on" in r["mean"]])}
+
+DON on the depth video of the same clips (the paper ran DON on both and found the same
+result). Command: `.venv/bin/imimic eval --scenario exp2-servo default exp3-forearm-none
+--estimator don --episodes {episodes} --modality depth --json benchmarks/results/eval_depth.json`
+
+{table(["scenario", "RGB settled RMSE (deg)", "depth settled RMSE (deg)", "depth lag", "depth mean eta"],
+       [[f"`{r['scenario']}`", f"{ev(r['scenario'], 'don'):.2f}", f"{r['mean']['rmse_deg_settled']:.2f}",
+         f"{r['mean']['lag_frames']:.1f}", f"{r['mean']['mean_trust']:.2f}"] for r in depth])}
+
+Depth is as good as colour on the servo and better on the person, most of all in
+clutter: a depth frame shows no background texture and no coloured posters, only what
+stands out in distance.
 
 The clips differ a lot from one another in the cluttered scenarios: per clip, DON's
 settled RMSE on `exp3-forearm-low` is {per_clip('exp3-forearm-low', 'don')} degrees. Means over three clips, as this

@@ -132,7 +132,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     for scenario in args.scenario:
         for estimator in args.estimator:
             result = evaluate_estimator(scenario, estimator, episodes=args.episodes,
-                                        first_seed=args.first_seed)
+                                        first_seed=args.first_seed, modality=args.modality)
             results.append(result)
             mean = result["mean"]
             occluded = ""
@@ -257,6 +257,9 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--estimator", nargs="+", default=["don"],
                           choices=("don", "mog2", "camshift"), help="default: %(default)s")
     evaluate.add_argument("--episodes", type=int, default=3, help="clips per scenario")
+    evaluate.add_argument("--modality", default="rgb", choices=("rgb", "depth"),
+                          help="the colour video, or the depth video as grey frames "
+                               "(default: %(default)s)")
     evaluate.add_argument("--first-seed", type=int, default=1000,
                           help="first held-out clip seed (default: %(default)s)")
     evaluate.add_argument("--json", default=None, help="also write the results to this file")

@@ -8,6 +8,7 @@ import numpy as np
 
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
+from imimic_gym.envs.imitate_video import MODALITIES, depth_to_frame
 from imimic_gym.metrics import angle_rmse_deg, lag_frames
 
 __all__ = ["ESTIMATORS", "WARM_UP_S", "evaluate_estimator", "make_estimator"]
@@ -31,9 +32,12 @@ def make_estimator(name: str, clip_meta: dict[str, Any], fps: float,
 
 
 def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
-                       first_seed: int = 1000) -> dict[str, Any]:
+                       first_seed: int = 1000, modality: str = "rgb") -> dict[str, Any]:
     """Run ``estimator`` over ``episodes`` held-out clips of ``scenario`` (seeds from
     ``first_seed``; training and tests use seeds below 1000) and score it against the truth.
+
+    ``modality="depth"`` feeds the estimator the clip's depth video as grey frames, near =
+    bright, exactly as ``ImitateVideo-v0(modality="depth")`` shows it.
 
     Per episode: angle RMSE (deg) over all frames and after ``WARM_UP_S``, lag (frames,
     cross-correlation peak, after warm-up), mean trust eta, and where the clip has
@@ -41,6 +45,8 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
     and on the others, and the RMSE on them with the prediction layer off and on (DON
     only).
     """
+    if modality not in MODALITIES:
+        raise ValueError(f"unknown modality {modality!r}; expected one of {MODALITIES}")
     spec = get_scenario(scenario)
     if spec.n_links != 1:
         raise ValueError(f"the estimators handle one moving link so far; {scenario!r} "
@@ -48,10 +54,11 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
     rows = []
     for seed in range(first_seed, first_seed + episodes):
         clip = load_clip(spec.replace(seed=seed), progress=False)
+        frames = clip.frames if modality == "rgb" else depth_to_frame(clip.depth)
         truth = clip.truth.angles
         warm = round(WARM_UP_S * clip.fps)
         est = make_estimator(estimator, clip.meta, clip.fps, spec.joint_ranges[0])
-        estimates = est.run(clip.frames)
+        estimates = est.run(frames)
         angles = np.array([e.angles for e in estimates])
         row: dict[str, Any] = {
             "seed": seed,
@@ -68,7 +75,7 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
             row["mean_trust_clear"] = float(trust[~occluded].mean())
         if occluded.any() and estimator == "don":
             on = make_estimator("don", clip.meta, clip.fps, spec.joint_ranges[0],
-                                trust_threshold=PREDICTION_ON).run(clip.frames)
+                                trust_threshold=PREDICTION_ON).run(frames)
             with_prediction = np.array([e.angles for e in on])
             row["rmse_occluded_deg_prediction_off"] = angle_rmse_deg(angles[occluded],
                                                                      truth[occluded])
@@ -78,5 +85,6 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
     # Occlusion figures exist only for clips with occluded frames: average where present.
     keys = dict.fromkeys(key for row in rows for key in row if key != "seed")
     summary = {key: float(np.mean([r[key] for r in rows if key in r])) for key in keys}
-    return {"scenario": scenario, "estimator": estimator, "episodes": episodes,
+    return {"scenario": scenario, "estimator": estimator, "modality": modality,
+            "episodes": episodes,
             "first_seed": first_seed, "warm_up_s": WARM_UP_S, "mean": summary, "rows": rows}

@@ -37,8 +37,10 @@ def test_keep_frame_decides_whether_pixels_stay() -> None:
     assert obs["estimate"].shape == (6,) and obs["estimate"].dtype == np.float32
 
 
-def test_estimate_follows_the_servo_through_the_env() -> None:
-    env = DONObservation(servo_env(), keep_frame=False)
+@pytest.mark.parametrize("modality", ["rgb", "depth"])
+def test_estimate_follows_the_servo_through_the_env(modality: str) -> None:
+    """DON works on depth video as on colour (the paper ran both)."""
+    env = DONObservation(servo_env(modality=modality), keep_frame=False)
     fields = estimate_fields(1)
     obs, info = env.reset(seed=0)
     estimated, truth = [], []
