@@ -51,8 +51,10 @@ def component_lines(mask: np.ndarray, min_area: int) -> np.ndarray:
     half_gap = np.sqrt(((a - c) / 2) ** 2 + b**2)
     major, minor = (a + c) / 2 + half_gap, np.maximum((a + c) / 2 - half_gap, 1e-9)
     theta = 0.5 * np.arctan2(2 * b, a - c)
-    return np.stack([cx, cy, np.cos(theta), np.sin(theta), np.sqrt(major),
-                     np.sqrt(major / minor), n], axis=1)
+    out = np.empty((len(n), 7))
+    out[:, 0], out[:, 1], out[:, 2], out[:, 3] = cx, cy, np.cos(theta), np.sin(theta)
+    out[:, 4], out[:, 5], out[:, 6] = np.sqrt(major), np.sqrt(major / minor), n
+    return out
 
 
 class PivotEstimator:
@@ -267,6 +269,7 @@ class LinkTracker:
         pivot = self.pivot()
         if pivot is None or self.radius is None:
             return None
-        return np.stack([pivot, pivot + self.radius * np.array([math.cos(angle),
-                                                                -math.sin(angle)])])
+        px, py = float(pivot[0]), float(pivot[1])
+        return np.array([[px, py], [px + self.radius * math.cos(angle),
+                                    py - self.radius * math.sin(angle)]])
 
