@@ -13,6 +13,7 @@ mkdir -p benchmarks/results
 "$BIN/imimic" eval --scenario exp2-servo default exp3-forearm-none exp3-forearm-low \
     exp3-forearm-high exp1-noisy-fast --estimator don mog2 camshift --episodes 10 \
     --json benchmarks/results/eval.json
-"$BIN/imimic" eval --scenario exp2-servo default exp3-forearm-none --estimator don \
+"$BIN/imimic" eval --scenario exp2-servo default exp3-forearm-none exp3-forearm-low \
+    exp3-forearm-high exp1-noisy-fast --estimator don \
     --episodes 10 --modality depth --json benchmarks/results/eval_depth.json
 "$BIN/python" benchmarks/write_results.py

@@ -209,15 +209,16 @@ and on (trust threshold 0.3):
 
 DON on the depth video of the same clips (the paper ran DON on both and found the same
 result). Command: `.venv/bin/imimic eval --scenario exp2-servo default exp3-forearm-none
---estimator don --episodes {episodes} --modality depth --json benchmarks/results/eval_depth.json`
+exp3-forearm-low exp3-forearm-high exp1-noisy-fast --estimator don --episodes {episodes}
+--modality depth --json benchmarks/results/eval_depth.json`
 
 {table(["scenario", "RGB settled RMSE (deg)", "depth settled RMSE (deg)", "depth lag", "depth mean eta"],
        [[f"`{r['scenario']}`", f"{ev(r['scenario'], 'don'):.2f}", f"{r['mean']['rmse_deg_settled']:.2f}",
          f"{r['mean']['lag_frames']:.1f}", f"{r['mean']['mean_trust']:.2f}"] for r in depth])}
 
-Depth is as good as colour on the servo and better on the person, most of all in
-clutter: a depth frame shows no background texture and no coloured posters, only what
-stands out in distance.
+Depth is as good as colour on the servo and better on the person against clutter: a
+depth frame shows no background texture and no coloured posters, only what stands out
+in distance. It does not help against the occluder, which stands out in depth too.
 
 The clips differ a lot from one another in the cluttered scenarios: per clip, DON's
 settled RMSE on `exp3-forearm-low` is {per_clip('exp3-forearm-low', 'don')} degrees. Means over three clips, as this
