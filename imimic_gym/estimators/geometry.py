@@ -154,12 +154,14 @@ class LinkTracker:
                  joint_range: tuple[float, float] | None = None, min_area: int = 12) -> None:
         self.reference_direction, self.known_pivot = reference_direction, pivot
         self.joint_range, self.min_area = joint_range, min_area
-        directions = None
+        # Where the link can point: (middle direction, half-width) in rad, the joint's
+        # range plus a margin for a pivot a few pixels off.
+        self.directions: tuple[float, float] | None = None
         if joint_range is not None:
             lo, hi = joint_range
-            directions = (reference_direction + (lo + hi) / 2,
-                          (hi - lo) / 2 + math.radians(RANGE_MARGIN_DEG))
-        self.pivots = PivotEstimator(directions=directions)
+            self.directions = (reference_direction + (lo + hi) / 2,
+                               (hi - lo) / 2 + math.radians(RANGE_MARGIN_DEG))
+        self.pivots = PivotEstimator(directions=self.directions)
         self.radius: float | None = None
         self._radius_pivot: np.ndarray | None = None
         self.lost_for = 0
@@ -218,14 +220,11 @@ class LinkTracker:
         if self.radius is not None:
             keep &= distance < 1.6 * self.radius
         centre_angle = np.arctan2(-offset[:, 1], offset[:, 0])  # image y points down
-        if self.joint_range is not None:
-            # The link cannot point where its joint cannot turn (with a margin for a
-            # pivot a few pixels off): an occluder's edge or a flipped reading there is
-            # not the link.
-            lo, hi = self.joint_range
-            middle = self.reference_direction + (lo + hi) / 2
-            keep &= (np.abs(wrap_angle(centre_angle - middle))
-                     < (hi - lo) / 2 + math.radians(RANGE_MARGIN_DEG))
+        if self.directions is not None:
+            # The link cannot point where its joint cannot turn: an occluder's edge or a
+            # flipped reading there is not the link.
+            middle, half_width = self.directions
+            keep &= np.abs(wrap_angle(centre_angle - middle)) < half_width
         if last is not None and self.lost_for < 5:
             keep &= np.abs(wrap_angle(centre_angle - last)) < math.radians(45)
         if not keep.any():
@@ -258,8 +257,7 @@ class LinkTracker:
             return None
         line = candidates[np.argmax(candidates[:, 4] * candidates[:, 6])]
         axis = math.atan2(-line[3], line[2])  # CCW, image up
-        lo, hi = self.joint_range
-        middle = self.reference_direction + (lo + hi) / 2
+        middle, _ = self.directions
         if abs(wrap_angle(axis - middle)) > math.pi / 2:
             axis += math.pi
         return float(wrap_angle(axis))
