@@ -11,8 +11,11 @@ mkdir -p benchmarks/results
 "$BIN/python" benchmarks/step_profile.py --json benchmarks/results/step_profile.json
 "$BIN/imimic" bench don --json benchmarks/results/don.json
 "$BIN/imimic" eval --scenario exp2-servo default exp3-forearm-none exp3-forearm-low \
-    exp3-forearm-high exp1-noisy-fast --estimator don mog2 camshift --episodes 3 \
+    exp3-forearm-high exp1-noisy-fast --estimator don mog2 camshift --episodes 10 \
     --json benchmarks/results/eval.json
+"$BIN/imimic" eval --scenario exp2-servo default exp3-forearm-none exp3-forearm-low \
+    exp3-forearm-high exp1-noisy-fast --estimator don \
+    --episodes 10 --modality depth --json benchmarks/results/eval_depth.json
 # Real footage (issue 6): skipped with a message when ../shared/realdata is absent.
 "$BIN/python" benchmarks/real_footage.py --json benchmarks/results/real_footage.json
 "$BIN/python" benchmarks/write_results.py

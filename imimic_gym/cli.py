@@ -9,7 +9,7 @@ from pathlib import Path
 
 import imimic_gym  # noqa: F401  (registers the env, sets headless GL)
 
-ESTIMATORS = ("oracle", "don")
+ESTIMATORS = ("don", "oracle")
 
 
 def _save_json(path: str | None, data: object) -> None:
@@ -27,6 +27,24 @@ def _print_table(rows: dict[str, object]) -> None:
         print(f"  {key:<{width}}  {shown}")
 
 
+def _demo_estimator(requested: str | None, scenario: str) -> str:
+    """``--estimator`` as given, or by default DON where it can see the arm (one moving
+    link) and the oracle elsewhere."""
+    from imimic_gym.clips.scenarios import get_scenario
+
+    n_links = get_scenario(scenario).n_links
+    if requested is None:
+        if n_links == 1:
+            return "don"
+        print(f"  DON follows one moving link so far; {scenario} has {n_links}, so the demo "
+              "runs the oracle (the true angles) instead.")
+        return "oracle"
+    if requested == "don" and n_links != 1:
+        raise SystemExit(f"imimic demo: --estimator don follows one moving link so far; "
+                         f"{scenario} has {n_links}. Use --estimator oracle.")
+    return requested
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
@@ -38,12 +56,13 @@ def cmd_demo(args: argparse.Namespace) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     print(f"imimic demo: scenario {args.scenario}, seed {args.seed}, control {args.control}")
+    args.estimator = _demo_estimator(args.estimator, args.scenario)
     kwargs = {"n_frames": args.frames} if args.frames else {}
     env = gym.make("ImitateVideo-v0", scenario=args.scenario, control=args.control,
                    clip_seeds=(args.seed,), render_mode="rgb_array", **kwargs)
     if args.estimator == "oracle":
         print("  estimator: oracle. The robot reads the true angles: this shows the control "
-              "loop's upper bound, not vision. Try --estimator don.")
+              "loop's upper bound, not vision.")
         controller = OracleController(env)
     else:
         from imimic_gym.wrappers import DONObservation
@@ -113,7 +132,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     for scenario in args.scenario:
         for estimator in args.estimator:
             result = evaluate_estimator(scenario, estimator, episodes=args.episodes,
-                                        first_seed=args.first_seed)
+                                        first_seed=args.first_seed, modality=args.modality)
             results.append(result)
             mean = result["mean"]
             occluded = ""
@@ -303,10 +322,10 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--seed", type=int, default=0, help="clip seed (default: %(default)s)")
     demo.add_argument("--control", default="position", choices=("position", "velocity", "torque"),
                       help="robot actuation (default: %(default)s, the paper's servo)")
-    demo.add_argument("--estimator", default="oracle", choices=ESTIMATORS,
-                      help="where the robot's targets come from: the true angles (oracle, "
-                           "the upper bound) or DON on the video (one-link scenarios); "
-                           "default: %(default)s")
+    demo.add_argument("--estimator", default=None, choices=ESTIMATORS,
+                      help="where the robot's targets come from: DON on the video, or the "
+                           "true angles (oracle: the control loop's upper bound, no vision); "
+                           "default: don for one-link scenarios, oracle for the others")
     demo.add_argument("--frames", type=int, default=None,
                       help="clip length in frames (default: the scenario's, 150 = 5 s)")
     demo.add_argument("--out", default="demo_out", help="output folder (default: %(default)s)")
@@ -342,6 +361,9 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--estimator", nargs="+", default=["don"],
                           choices=("don", "mog2", "camshift"), help="default: %(default)s")
     evaluate.add_argument("--episodes", type=int, default=3, help="clips per scenario")
+    evaluate.add_argument("--modality", default="rgb", choices=("rgb", "depth"),
+                          help="the colour video, or the depth video as grey frames "
+                               "(default: %(default)s)")
     evaluate.add_argument("--first-seed", type=int, default=1000,
                           help="first held-out clip seed (default: %(default)s)")
     evaluate.add_argument("--json", default=None, help="also write the results to this file")

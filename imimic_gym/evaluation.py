@@ -8,6 +8,7 @@ import numpy as np
 
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
+from imimic_gym.envs.imitate_video import MODALITIES, depth_to_frame
 from imimic_gym.metrics import angle_rmse_deg, lag_frames
 
 __all__ = ["ESTIMATORS", "WARM_UP_S", "evaluate_estimator", "make_estimator"]
@@ -31,15 +32,21 @@ def make_estimator(name: str, clip_meta: dict[str, Any], fps: float,
 
 
 def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
-                       first_seed: int = 1000) -> dict[str, Any]:
+                       first_seed: int = 1000, modality: str = "rgb") -> dict[str, Any]:
     """Run ``estimator`` over ``episodes`` held-out clips of ``scenario`` (seeds from
     ``first_seed``; training and tests use seeds below 1000) and score it against the truth.
 
+    ``modality="depth"`` feeds the estimator the clip's depth video as grey frames, near =
+    bright, exactly as ``ImitateVideo-v0(modality="depth")`` shows it.
+
     Per episode: angle RMSE (deg) over all frames and after ``WARM_UP_S``, lag (frames,
     cross-correlation peak, after warm-up), mean trust eta, and where the clip has
-    occluded frames (over 10% of the moving links hidden), the RMSE on those frames with
-    the prediction layer off and on (DON only).
+    occluded frames (over 10% of the moving links hidden), the mean eta on those frames
+    and on the others, and the RMSE on them with the prediction layer off and on (DON
+    only).
     """
+    if modality not in MODALITIES:
+        raise ValueError(f"unknown modality {modality!r}; expected one of {MODALITIES}")
     spec = get_scenario(scenario)
     if spec.n_links != 1:
         raise ValueError(f"the estimators handle one moving link so far; {scenario!r} "
@@ -47,10 +54,11 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
     rows = []
     for seed in range(first_seed, first_seed + episodes):
         clip = load_clip(spec.replace(seed=seed), progress=False)
+        frames = clip.frames if modality == "rgb" else depth_to_frame(clip.depth)
         truth = clip.truth.angles
         warm = round(WARM_UP_S * clip.fps)
         est = make_estimator(estimator, clip.meta, clip.fps, spec.joint_ranges[0])
-        estimates = est.run(clip.frames)
+        estimates = est.run(frames)
         angles = np.array([e.angles for e in estimates])
         row: dict[str, Any] = {
             "seed": seed,
@@ -61,16 +69,22 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
         }
         occluded = clip.truth.occlusion > 0.1
         row["occluded_frames"] = int(occluded.sum())
+        if occluded.any() and not occluded.all():
+            trust = np.array([e.trust for e in estimates])
+            row["mean_trust_occluded"] = float(trust[occluded].mean())
+            row["mean_trust_clear"] = float(trust[~occluded].mean())
         if occluded.any() and estimator == "don":
             on = make_estimator("don", clip.meta, clip.fps, spec.joint_ranges[0],
-                                trust_threshold=PREDICTION_ON).run(clip.frames)
+                                trust_threshold=PREDICTION_ON).run(frames)
             with_prediction = np.array([e.angles for e in on])
             row["rmse_occluded_deg_prediction_off"] = angle_rmse_deg(angles[occluded],
                                                                      truth[occluded])
             row["rmse_occluded_deg_prediction_on"] = angle_rmse_deg(with_prediction[occluded],
                                                                     truth[occluded])
         rows.append(row)
-    summary = {key: float(np.mean([r[key] for r in rows])) for key in rows[0]
-               if key not in ("seed",)}
-    return {"scenario": scenario, "estimator": estimator, "episodes": episodes,
+    # Occlusion figures exist only for clips with occluded frames: average where present.
+    keys = dict.fromkeys(key for row in rows for key in row if key != "seed")
+    summary = {key: float(np.mean([r[key] for r in rows if key in r])) for key in keys}
+    return {"scenario": scenario, "estimator": estimator, "modality": modality,
+            "episodes": episodes,
             "first_seed": first_seed, "warm_up_s": WARM_UP_S, "mean": summary, "rows": rows}

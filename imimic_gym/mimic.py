@@ -9,12 +9,13 @@ tracking reward 0), the estimator is added by its observation wrapper, the contr
 one, the CSV is appended and flushed per frame, and only a few numbers per frame stay in
 memory for the plot.
 
-Outputs in ``out``: ``mimic.mp4`` (the footage with the estimate drawn on it, beside the
-simulated robot), ``angles.png`` (estimated vs robot angle), ``mimic.csv`` (one row a
-frame: ``time_s, frame, angle_rad, omega_rad_s, torque_nm, eta, predicted, robot_rad,
-latency_ms`` with one column per joint for the angle-like fields, suffixed 1..n) and
-``mimic.json`` (frames/s after the first frame, latency, how the run ended). Ctrl-C, or
-a camera that disappears, ends the run cleanly with all of them written up to that frame.
+Outputs in ``out``: ``mimic.mp4`` (the footage with the estimate drawn on it by the
+estimator wrapper's ``render``, beside the simulated robot), ``angles.png`` (estimated
+vs robot angle), ``mimic.csv`` (one row a frame: ``time_s, frame, angle_rad,
+omega_rad_s, torque_nm, eta, predicted, robot_rad, latency_ms`` with one column per joint
+for the angle-like fields, suffixed 1..n) and ``mimic.json`` (frames/s after the first
+frame, latency, how the run ended). Ctrl-C, or a camera that disappears, ends the run
+cleanly with all of them written up to that frame.
 
 Latency is the wall time from asking the source for a frame to the joint command being
 ready (reading, decoding, estimating, controlling; not the video rendering), so on a
@@ -25,16 +26,13 @@ delay.
 from __future__ import annotations
 
 import csv
-import itertools
 import json
-import math
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import cv2
 import gymnasium as gym
 import numpy as np
 
@@ -91,28 +89,8 @@ def csv_header(n: int) -> list[str]:
             *joints("torque_nm"), "eta", "predicted", *joints("robot_rad"), "latency_ms"]
 
 
-def overlay(image: np.ndarray, estimate: Any, name: str) -> np.ndarray:
-    """Draw the estimated link (pivot to tip) and its angle on the video half of a
-    side-by-side (H, 2W, 3) uint8 RGB image, in place; returns it."""
-    if estimate.keypoints is not None:
-        points = np.rint(estimate.keypoints).astype(int)
-        for a, b in itertools.pairwise(points):
-            cv2.line(image, tuple(map(int, a)), tuple(map(int, b)), (0, 255, 0), 2, cv2.LINE_AA)
-        cv2.circle(image, tuple(map(int, points[0])), 4, (255, 0, 0), -1, cv2.LINE_AA)
-    angle = ", ".join(f"{math.degrees(q):+.0f}" for q in estimate.angles)
-    text = f"{name} {angle} deg  eta {estimate.trust:.2f}" + (" pred" if estimate.predicted
-                                                               else "")
-    scale = max(0.4, image.shape[0] / 600)
-    (width, height), base = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, scale, 1)
-    # On a dark box: readable over any footage, and after the video is scaled down.
-    cv2.rectangle(image, (0, 0), (width + 12, height + base + 10), (0, 0, 0), -1)
-    cv2.putText(image, text, (6, height + 5), cv2.FONT_HERSHEY_SIMPLEX, scale,
-                (255, 255, 255), 1, cv2.LINE_AA)
-    return image
-
-
 def mimic_frames(env: gym.Env, controller: Any, log: MimicLog, rows: Any = None,
-                 servo: Any = None, name: str = "estimate",
+                 servo: Any = None,
                  on_frame: Callable[[MimicLog], None] | None = None,
                  realtime: bool = False) -> Iterator[np.ndarray]:
     """Run ``controller`` on the estimator-wrapped ``env`` to the end of its clip (or of
@@ -160,7 +138,7 @@ def mimic_frames(env: gym.Env, controller: Any, log: MimicLog, rows: Any = None,
     if hasattr(controller, "reset"):
         controller.reset()
     action = record(obs, info, started)
-    yield overlay(env.render(), env.last_estimate, name)
+    yield env.render()
     done, first = False, time.perf_counter()
     while not done:
         if realtime:
@@ -172,7 +150,7 @@ def mimic_frames(env: gym.Env, controller: Any, log: MimicLog, rows: Any = None,
         except StreamEndedError:
             return
         action = record(obs, info, started)
-        yield overlay(env.render(), env.last_estimate, name)
+        yield env.render()
         done = terminated or truncated
 
 
@@ -239,8 +217,7 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
         rows.writerow(csv_header(env.unwrapped.arm.n_links))
         try:
             write_video(out / "mimic.mp4",
-                        mimic_frames(env, controller, log, rows, servo, estimator, show,
-                                     realtime),
+                        mimic_frames(env, controller, log, rows, servo, show, realtime),
                         clip.fps)
         except KeyboardInterrupt:
             ended = "stopped by Ctrl-C"

@@ -10,7 +10,7 @@ from imimic_gym.cli import main
 
 def test_demo_writes_video_plot_and_metrics(tmp_path, capsys) -> None:
     out = tmp_path / "demo"
-    assert main(["demo", "--out", str(out), "--frames", "60"]) == 0
+    assert main(["demo", "--estimator", "oracle", "--out", str(out), "--frames", "60"]) == 0
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["scenario"] == "exp2-servo"
     assert metrics["estimator"] == "oracle" and metrics["controller"] == "oracle"
@@ -24,6 +24,25 @@ def test_demo_writes_video_plot_and_metrics(tmp_path, capsys) -> None:
         video.release()
     assert cv2.imread(str(out / "angles.png")) is not None
     assert "oracle" in capsys.readouterr().out
+
+
+def test_demo_defaults_to_don_where_it_sees_the_arm(tmp_path, capsys) -> None:
+    assert main(["demo", "--out", str(tmp_path / "one"), "--frames", "90"]) == 0
+    metrics = json.loads((tmp_path / "one" / "metrics.json").read_text())
+    assert metrics["estimator"] == "don" and metrics["controller"] == "pd"
+    # Vision in the loop: worse than the oracle's 2 degrees, far better than standing still.
+    assert 0.3 < metrics["rmse_deg"] < 8.0
+    capsys.readouterr()
+    assert main(["demo", "--scenario", "chain-2", "--out", str(tmp_path / "two"),
+                 "--frames", "10"]) == 0
+    assert "runs the oracle" in capsys.readouterr().out
+    metrics = json.loads((tmp_path / "two" / "metrics.json").read_text())
+    assert metrics["estimator"] == "oracle"
+
+
+def test_demo_refuses_don_on_several_links() -> None:
+    with pytest.raises(SystemExit, match="one moving link so far; chain-2 has 2"):
+        main(["demo", "--scenario", "chain-2", "--estimator", "don", "--frames", "10"])
 
 
 def test_clip_writes_mp4_and_truth(tmp_path) -> None:
@@ -45,15 +64,6 @@ def test_help_explains_each_command() -> None:
                             capture_output=True, text=True, check=True)
     for command in ("demo", "clip", "bench", "scenarios"):
         assert command in result.stdout
-
-
-def test_demo_with_don_reports_it(tmp_path) -> None:
-    out = tmp_path / "don"
-    assert main(["demo", "--estimator", "don", "--out", str(out), "--frames", "90"]) == 0
-    metrics = json.loads((out / "metrics.json").read_text())
-    assert metrics["estimator"] == "don" and metrics["controller"] == "pd"
-    # Vision in the loop: worse than the oracle's 2 degrees, far better than standing still.
-    assert 0.3 < metrics["rmse_deg"] < 8.0
 
 
 def test_bench_don_reports_every_estimator_per_resolution() -> None:

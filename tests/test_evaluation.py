@@ -25,9 +25,24 @@ def test_eval_writes_json_with_finite_metrics(tmp_path) -> None:
 def test_occluded_frames_are_scored_with_and_without_prediction() -> None:
     result = evaluate_estimator("exp3-forearm-high", "don", episodes=1)
     row = result["rows"][0]
-    assert row["occluded_frames"] > 0
+    assert 0 < row["occluded_frames"] < 150
     assert math.isfinite(row["rmse_occluded_deg_prediction_off"])
     assert math.isfinite(row["rmse_occluded_deg_prediction_on"])
+    assert 0.0 <= row["mean_trust_occluded"] <= 1.0 and 0.0 <= row["mean_trust_clear"] <= 1.0
+
+
+def test_eval_on_depth_video_scores_the_servo(tmp_path) -> None:
+    out = tmp_path / "depth.json"
+    assert main(["eval", "--scenario", "exp2-servo", "--estimator", "don", "--episodes", "1",
+                 "--modality", "depth", "--json", str(out)]) == 0
+    (result,) = json.loads(out.read_text())
+    assert result["modality"] == "depth"
+    assert result["mean"]["rmse_deg_settled"] < 3.0
+
+
+def test_eval_refuses_an_unknown_modality() -> None:
+    with pytest.raises(ValueError, match="unknown modality 'ir'; expected one of"):
+        evaluate_estimator("exp2-servo", "don", episodes=1, modality="ir")
 
 
 def test_eval_refuses_multi_link_scenarios_for_now() -> None:

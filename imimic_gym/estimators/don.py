@@ -16,7 +16,7 @@ Decisions where the paper is vague or inconsistent (each is also noted where it 
   frames (van Herk / Gil-Werman, amortised O(1) images per frame) give the union of the
   N delta2 in two comparisons instead of N differences.
 - Object identification per frame. l_1 = (union delta2) & delta1_1 is computed for the
-  new frame; the locations and areas of l_2..l_N are the ones computed when those frames
+  new frame; the locations and sizes of l_2..l_N are the ones computed when those frames
   were new. Re-intersecting older delta1 with today's union only drops noise pixels.
 - Object regression, pivot and radius (`geometry.py`). The paper adds a line per link
   for n links; we fit one per moving region of l_1 (its principal axis) for one link
@@ -27,16 +27,17 @@ Decisions where the paper is vague or inconsistent (each is also noted where it 
 - Location. s = the link's direction: the weighted mean axis of the regions that lie on
   a ray from the pivot. delta1_1 spans frames t-1 and t, so s lags by half a frame: the
   angle reported for frame t is s + v/2.
-- Trust and prediction. eta per Eq. (TF). Below ``trust_threshold`` the current frame is
-  not believed and the prediction layer rolls the last trusted state forward with
-  Eq. (VAPr), v <- v + a, a <- a + a', for at most 2N frames (the paper's set length),
-  then holds. A frame with no motion at all keeps the last estimate and eta = 1
+- Trust and prediction. eta per Eq. (TF), with M_p the link's visible length rather than
+  the raw moving area (`DON.trust_factor` says why); a link that was turning and vanishes
+  counts as size 0. Below ``trust_threshold`` the current frame is not believed and the
+  prediction layer rolls the last trusted state forward with Eq. (VAPr), v <- v + a,
+  a <- a + a', for at most 2N frames (the paper's set length), then holds. A frame with
+  no motion at all keeps the last estimate and eta = 1
   ("nothing to distrust"). Nothing here can produce NaN.
 """
 
 from __future__ import annotations
 
-import math
 from collections import deque
 from collections.abc import Iterable
 
@@ -53,11 +54,11 @@ from imimic_gym.metrics import wrap_angle
 __all__ = ["DON", "FrameShapeError", "SlidingExtrema"]
 
 def _any_channel_above(difference: np.ndarray, tau: int) -> np.ndarray:
-    """(H, W) bool: some colour channel of ``difference`` exceeds ``tau``. Thresholding each
-    channel, then converting to grey (positive exactly where any channel passed), is
-    three SIMD passes; numpy's max over the channel axis is 30x slower."""
+    """(H, W) uint8, nonzero where some colour channel of ``difference`` exceeds ``tau``.
+    Thresholding each channel, then converting to grey (positive exactly where any channel
+    passed), is two SIMD passes; numpy's max over the channel axis is 30x slower."""
     _, passed = cv2.threshold(difference, tau, 255, cv2.THRESH_BINARY)
-    return cv2.cvtColor(passed, cv2.COLOR_RGB2GRAY) > 0
+    return cv2.cvtColor(passed, cv2.COLOR_RGB2GRAY)
 
 
 class SlidingExtrema:
@@ -116,10 +117,11 @@ class DON:
             fixed reference link; the joint angle is the link's direction minus this.
         pivot: the pivot in input pixels (x, y), if known; else estimated from the video.
         trust_threshold: below this eta the prediction layer takes over. Default 0, off:
-            on the rendered scenarios eta does not yet separate occlusion from ordinary
-            changes of speed, and switching to prediction on it raised the angle error
-            on clips without occlusion. eta is still computed and reported in every
-            estimate; `imimic eval` scores occluded frames with prediction off and on.
+            on the rendered scenarios eta drops on occluded frames, but also wherever the
+            tracker loses the link among moving clutter, and rolling the prediction on
+            there raised the angle error (benchmarks/RESULTS.md). eta is still computed
+            and reported in every estimate; `imimic eval` scores occluded frames with
+            prediction off and on.
         robot: a MuJoCo model of the robot, for torques; None gives zero torque.
         joint_range: the joint's (low, high) limits in rad, if known. Before the pivot is
             found, a moving region's axis gives the link's direction up to 180 degrees;
@@ -158,9 +160,10 @@ class DON:
         self.extrema = SlidingExtrema(self.window)
         self.link: LinkTracker | None = None  # made on the first frame, once scale is known
         self.path = PathEstimator(1, self.fps, self.window)
-        self.areas: deque[float | None] = deque(maxlen=self.window)
+        # M_p of the trust factor: the link's visible length per frame, None where the
+        # frame measured nothing.
+        self.sizes: deque[float | None] = deque(maxlen=self.window)
         self.angle: float | None = None  # absolute image angle of the link, rad
-        self.measured: float | None = None  # the last angle measured, not predicted
         self.predicting_for = 0
         # Before the arm has moved DON has seen nothing: the middle of the joint's range
         # (if known) is the guess least far from anywhere the arm can be.
@@ -176,34 +179,38 @@ class DON:
 
     # Layers 2 and 3: frame differences and object identification ----------------------
     def _moving_pixels(self, image: np.ndarray) -> np.ndarray:
-        """l_1 = (union_p delta2_p) & delta1_1 (paper Eq. OL), binary uint8."""
+        """l_1 = (union_p delta2_p) & delta1_1 (paper Eq. OL), (h, w) uint8, nonzero where
+        the pixel moves."""
         tau = self.threshold
         # DON layer 2: frame difference, paper Eqs. (f1), (f2), binarised.
-        # A pixel differs when any colour channel differs by more than tau.
+        # A pixel differs when any colour channel differs by more than tau; f_t differs
+        # from some f_{t-p} exactly when it rises above the window's minimum or falls below
+        # its maximum, so one saturating difference each, merged, covers every delta2_p.
         delta1 = _any_channel_above(cv2.absdiff(image, self.previous), tau)
         low, high = self.extrema.extrema()
-        union = _any_channel_above(cv2.subtract(image, low), tau) | _any_channel_above(
-            cv2.subtract(high, image), tau)
+        union = _any_channel_above(
+            cv2.max(cv2.subtract(image, low), cv2.subtract(high, image)), tau)
         # DON layer 3: object identification, paper Eq. (OL).
-        return delta1 & union
+        return cv2.bitwise_and(delta1, union)
 
     # Layer 4b: trust factor -------------------------------------------------------------
     def trust_factor(self) -> float:
         """eta = 1 - max_p |M_1 - M_p| / max_p M_p, paper Eq. (TF); 1 with fewer than two
         measurements in the window.
 
-        M_p is the link's visible size: its moving area divided by the angle it turned
-        in that frame. The paper assumes "the size of the moving object will remain almost
-        the same"; the raw area of a difference image does not (it grows with speed, so
-        every start and stop of a movement would read as occlusion), but area per radian
-        does: a link of visible length L sweeps about L^2 per radian. An occluder hides
-        part of L, and M_p drops. Frames turning less than half a degree are left out.
+        M_p is the link's visible length in frame p: the radial span of the moving regions
+        accepted as the link (`LinkTracker.measure`). The paper takes M_p as the area of
+        l_p, assuming "the size of the moving object will remain almost the same"; the
+        area of a difference image does not (it grows with speed, so every start and stop
+        of a movement would read as occlusion), while the span of the link's moving pixels
+        stays the link's length at any speed. An occluder hides part of it, and M_1 drops:
+        a link whose outer half disappears gives eta = 0.5, the fraction still seen.
         """
-        areas = np.asarray([a for a in self.areas if a is not None], dtype=np.float64)
-        largest = areas.max() if areas.size > 1 else 0.0
+        sizes = np.asarray([m for m in self.sizes if m is not None], dtype=np.float64)
+        largest = sizes.max() if sizes.size > 1 else 0.0
         if largest <= 0:
             return 1.0
-        return float(1.0 - np.max(np.abs(areas[-1] - areas)) / largest)
+        return float(1.0 - np.max(np.abs(sizes[-1] - sizes)) / largest)
 
     # Layer 5: prediction ------------------------------------------------------------------
     def _predict(self) -> float:
@@ -244,6 +251,10 @@ class DON:
             self.estimate = self._estimate(self.angle, 0.0, 0.0, trust, predicted=False)
         return self.estimate
 
+    def _was_moving(self) -> bool:
+        """The path estimator's last v exceeds half a degree per frame."""
+        return bool(self.path.V) and abs(float(self.path.V[-1][0])) > np.radians(0.5)
+
     def update(self, frame: np.ndarray) -> Estimate:
         """Take the next (H, W, 3) uint8 RGB frame; return the estimate for it."""
         image = self.frames(frame)
@@ -258,10 +269,10 @@ class DON:
         self.last_mask = mask
         self.previous = image
         self.extrema.push(image)
-        area = int(np.count_nonzero(mask))
+        area = cv2.countNonZero(mask)
 
         if area < self.min_area:
-            self.areas.append(None)
+            self.sizes.append(None)
             return self._hold(trust=1.0)  # nothing moved, nothing to distrust
 
         lines = self.link.lines(mask)
@@ -274,14 +285,13 @@ class DON:
         # DON layer 3 + object regression: where the link is, from l_1's regions.
         measured = self.link.measure(lines, pivot, self.angle)
         if measured is None:
-            # Motion, but none along the link (a distractor while the arm rests).
-            self.areas.append(None)
+            # Motion, but none along the link. If the link was turning, it is hidden (size
+            # 0, eta says so); if it was at rest, this is a distractor (no size). Either way
+            # there is nothing to roll the prediction on from: hold.
+            self.sizes.append(0.0 if self._was_moving() else None)
             return self._hold(trust=self.trust_factor())
-        location, link_area = measured
-        turned = (abs(float(wrap_angle(location - self.measured)))
-                  if self.measured is not None else 0.0)
-        self.measured = location
-        self.areas.append(link_area / turned if turned > math.radians(0.5) else None)
+        location, visible_length = measured
+        self.sizes.append(visible_length)
         trust = self.trust_factor()
         predicted = trust < self.trust_threshold and self.angle is not None
         if predicted:

@@ -18,6 +18,8 @@ from imimic_gym.metrics import wrap_angle
 
 __all__ = ["LinkTracker", "PivotEstimator", "component_lines"]
 
+RANGE_MARGIN_DEG = 20.0  # how far past its joint range a region may still be the link
+
 
 def component_lines(mask: np.ndarray, min_area: int) -> np.ndarray:
     """Principal axis of every 8-connected component of ``mask`` with at least
@@ -26,8 +28,13 @@ def component_lines(mask: np.ndarray, min_area: int) -> np.ndarray:
     Returns (k, 7) float64 rows: centre x, centre y, direction x, direction y, length (std
     along the axis, px), elongation (major/minor std ratio), area (px).
     """
-    count, labels = cv2.connectedComponents(mask.view(np.uint8), connectivity=8)
-    ys, xs = np.nonzero(mask)
+    mask = mask.view(np.uint8)
+    count, labels = cv2.connectedComponents(mask, connectivity=8)
+    points = cv2.findNonZero(mask)  # x, y in row-major order, 3x faster than np.nonzero
+    if points is None:
+        return np.zeros((0, 7))
+    points = points.reshape(-1, 2)
+    xs, ys = points[:, 0], points[:, 1]
     label = labels[ys, xs]
     n = np.bincount(label, minlength=count).astype(np.float64)
     keep = n >= max(min_area, 2)
@@ -44,8 +51,10 @@ def component_lines(mask: np.ndarray, min_area: int) -> np.ndarray:
     half_gap = np.sqrt(((a - c) / 2) ** 2 + b**2)
     major, minor = (a + c) / 2 + half_gap, np.maximum((a + c) / 2 - half_gap, 1e-9)
     theta = 0.5 * np.arctan2(2 * b, a - c)
-    return np.stack([cx, cy, np.cos(theta), np.sin(theta), np.sqrt(major),
-                     np.sqrt(major / minor), n], axis=1)
+    out = np.empty((len(n), 7))
+    out[:, 0], out[:, 1], out[:, 2], out[:, 3] = cx, cy, np.cos(theta), np.sin(theta)
+    out[:, 4], out[:, 5], out[:, 6] = np.sqrt(major), np.sqrt(major / minor), n
+    return out
 
 
 class PivotEstimator:
@@ -58,9 +67,16 @@ class PivotEstimator:
     all pairs of 40 lines costs as much as the rest of a frame). The first pivot is only
     taken when two solves ``refresh`` lines apart agree within ``agree_px``: a pivot made
     of a sweeping occluder's edges moves with the occluder, the real one stays put.
+
+    ``directions`` (middle, half-width), rad: where the link can point. A crossing only
+    counts if both regions lie, seen from it, within that fan: the link's own regions
+    always do about the true pivot, while an occluder's edge crossing the link does so
+    by chance.
     """
 
-    def __init__(self, memory: int = 40, refresh: int = 10, agree_px: float = 4.0) -> None:
+    def __init__(self, memory: int = 40, refresh: int = 10, agree_px: float = 4.0,
+                 directions: tuple[float, float] | None = None) -> None:
+        self.directions = directions
         self.lines: deque[np.ndarray] = deque(maxlen=memory)
         self.refresh, self.agree_px = refresh, agree_px
         self._new, self._stale = 0, False
@@ -104,6 +120,17 @@ class PivotEstimator:
         along_i = (delta[:, 0] * direction[j, 1] - delta[:, 1] * direction[j, 0]) / cross
         points = centre[i] + along_i[:, None] * direction[i]
         weights = weight[i] * weight[j]
+        if self.directions is not None:
+            # Both regions must lie, seen from the crossing, where the link can point.
+            middle, half_width = self.directions
+            ok = np.ones(len(points), dtype=bool)
+            for k in (i, j):
+                offset = centre[k] - points
+                bearing = np.arctan2(-offset[:, 1], offset[:, 0])
+                ok &= np.abs(wrap_angle(bearing - middle)) < half_width
+            if np.count_nonzero(ok) < 20:
+                return None
+            points, weights = points[ok], weights[ok]
         point = np.array([np.median(points[:, 0]), np.median(points[:, 1])])
         for radius in (16.0, 8.0, 4.0, 4.0):  # shrinking mean shift toward the mode
             near = np.hypot(*(points - point).T) < radius
@@ -127,7 +154,14 @@ class LinkTracker:
                  joint_range: tuple[float, float] | None = None, min_area: int = 12) -> None:
         self.reference_direction, self.known_pivot = reference_direction, pivot
         self.joint_range, self.min_area = joint_range, min_area
-        self.pivots = PivotEstimator()
+        # Where the link can point: (middle direction, half-width) in rad, the joint's
+        # range plus a margin for a pivot a few pixels off.
+        self.directions: tuple[float, float] | None = None
+        if joint_range is not None:
+            lo, hi = joint_range
+            self.directions = (reference_direction + (lo + hi) / 2,
+                               (hi - lo) / 2 + math.radians(RANGE_MARGIN_DEG))
+        self.pivots = PivotEstimator(directions=self.directions)
         self.radius: float | None = None
         self._radius_pivot: np.ndarray | None = None
         self.lost_for = 0
@@ -157,13 +191,17 @@ class LinkTracker:
         self, lines: np.ndarray, pivot: np.ndarray, last: float | None
     ) -> tuple[float, float] | None:
         """The location s: the link's direction (rad, CCW, image up), from the moving
-        regions that lie along a ray from the pivot, and those regions' area (px).
+        regions that lie along a ray from the pivot, and the link's visible length (px):
+        the radial span those regions cover, from the innermost region's inner end to the
+        outermost one's tip (a region's half-length is 1.7 standard deviations along its
+        axis, as for a uniform bar).
 
         A region belongs to the link when it is clearly elongated and its principal axis
         points at the pivot within ~14 degrees (it lies along a ray: the link's leading and
         trailing slivers do, a distractor's blob seldom does), it is no farther than 1.6
-        link radii, and it lies within 45 degrees of the last direction (a gate dropped
-        after 5 frames without a match, so a wrong lock cannot last). The direction is the
+        link radii, it lies where the joint can turn (its range, if known, plus 20
+        degrees), and within 45 degrees of the last direction (a gate dropped after 5
+        frames without a match, so a wrong lock cannot last). The direction is the
         mean of those regions' axes weighted by length times area, pointed away from the
         pivot: an axis does not tilt when the pivot is a few pixels off, as a
         pivot-to-pixel angle would.
@@ -182,6 +220,11 @@ class LinkTracker:
         if self.radius is not None:
             keep &= distance < 1.6 * self.radius
         centre_angle = np.arctan2(-offset[:, 1], offset[:, 0])  # image y points down
+        if self.directions is not None:
+            # The link cannot point where its joint cannot turn: an occluder's edge or a
+            # flipped reading there is not the link.
+            middle, half_width = self.directions
+            keep &= np.abs(wrap_angle(centre_angle - middle)) < half_width
         if last is not None and self.lost_for < 5:
             keep &= np.abs(wrap_angle(centre_angle - last)) < math.radians(45)
         if not keep.any():
@@ -198,9 +241,11 @@ class LinkTracker:
         weights = (length * area)[keep]
         mean = math.atan2(float(np.sum(weights * np.sin(angles))),
                           float(np.sum(weights * np.cos(angles))))
-        reach = float(np.max(distance[keep] + 1.7 * length[keep]))
+        outer = distance[keep] + 1.7 * length[keep]
+        inner = np.maximum(distance[keep] - 1.7 * length[keep], 0.0)
+        reach = float(outer.max())
         self.radius = reach if self.radius is None else 0.9 * self.radius + 0.1 * reach
-        return mean, float(area[keep].sum())
+        return mean, reach - float(inner.min())
 
     def before_pivot(self, lines: np.ndarray) -> float | None:
         """Until the pivot is found: the longest elongated region's axis (rad), pointed
@@ -212,8 +257,7 @@ class LinkTracker:
             return None
         line = candidates[np.argmax(candidates[:, 4] * candidates[:, 6])]
         axis = math.atan2(-line[3], line[2])  # CCW, image up
-        lo, hi = self.joint_range
-        middle = self.reference_direction + (lo + hi) / 2
+        middle, _ = self.directions
         if abs(wrap_angle(axis - middle)) > math.pi / 2:
             axis += math.pi
         return float(wrap_angle(axis))
@@ -223,6 +267,7 @@ class LinkTracker:
         pivot = self.pivot()
         if pivot is None or self.radius is None:
             return None
-        return np.stack([pivot, pivot + self.radius * np.array([math.cos(angle),
-                                                                -math.sin(angle)])])
+        px, py = float(pivot[0]), float(pivot[1])
+        return np.array([[px, py], [px + self.radius * math.cos(angle),
+                                    py - self.radius * math.sin(angle)]])
 

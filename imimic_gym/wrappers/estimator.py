@@ -16,7 +16,7 @@ from gymnasium import spaces
 from imimic_gym.estimators.don import DON
 from imimic_gym.estimators.types import Estimate, Estimator
 
-__all__ = ["DONObservation", "EstimatorObservation", "estimate_fields"]
+__all__ = ["DONObservation", "EstimatorObservation", "draw_estimate", "estimate_fields"]
 
 # Bounds of the estimate vector, so the space is finite (checkers warn on infinite ones)
 # and a wild estimate cannot leave it: angles rad, omega rad/s, alpha rad/s^2, torque N m.
@@ -28,6 +28,27 @@ def estimate_fields(n: int) -> dict[str, slice]:
     fields = {name: slice(i * n, (i + 1) * n) for i, name in enumerate(BOUNDS)}
     fields["trust"], fields["predicted"] = slice(4 * n, 4 * n + 1), slice(4 * n + 1, 4 * n + 2)
     return fields
+
+
+def draw_estimate(picture: np.ndarray, estimate: Estimate) -> np.ndarray:
+    """A copy of ``picture`` (H, W', 3) uint8 RGB with ``estimate`` drawn on it: its
+    keypoints (input pixels, (x, y)) joined as links in yellow, a dot at each joint, and a
+    line of text with the angles (deg) and eta; cyan text while the prediction layer
+    speaks for the frame."""
+    import cv2
+
+    out = picture.copy()
+    if estimate.keypoints is not None:
+        points = np.rint(np.asarray(estimate.keypoints)).astype(np.int32)
+        cv2.polylines(out, [points.reshape(-1, 1, 2)], False, (255, 220, 0), 2, cv2.LINE_AA)
+        for x, y in points[:-1]:
+            cv2.circle(out, (int(x), int(y)), 4, (255, 220, 0), -1, cv2.LINE_AA)
+    angles = " ".join(f"{np.degrees(q):+.0f}" for q in estimate.angles)
+    text = f"estimate {angles} deg  eta {estimate.trust:.2f}"
+    colour = (0, 230, 255) if estimate.predicted else (255, 220, 0)
+    cv2.putText(out, text, (6, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 3, cv2.LINE_AA)
+    cv2.putText(out, text, (6, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.45, colour, 1, cv2.LINE_AA)
+    return out
 
 
 class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorArgs):
@@ -74,6 +95,15 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
     def reset(self, **kwargs: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         self.estimator.reset()
         return super().reset(**kwargs)
+
+    def render(self) -> np.ndarray | None:
+        """The env's (H, 2W, 3) uint8 picture, video left and robot right, with what the
+        estimator sees drawn on the video: the estimated links from their keypoints, and
+        the angles and trust factor as text."""
+        picture = self.env.render()
+        if picture is None or self.last_estimate is None:
+            return picture
+        return draw_estimate(picture, self.last_estimate)
 
     def observation(self, observation: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         self.last_estimate = self.estimator.update(observation["frame"])

@@ -82,6 +82,41 @@ def test_still_black_and_short_inputs_give_defined_estimates() -> None:
                 assert estimate.trust == 1.0 and not estimate.predicted
 
 
+@pytest.mark.parametrize(("visible", "low", "high"),
+                         [(0.8, 0.6, 0.85), (0.5, 0.3, 0.55), (0.3, 0.0, 0.05)])
+def test_an_occluder_hiding_the_outer_part_of_the_link_gives_its_eta(
+        visible: float, low: float, high: float) -> None:
+    """From frame 40 on, everything farther than ``visible`` link lengths from the pivot is
+    hidden. eta reads about the fraction still seen (a little less: next to the pivot the
+    link barely moves); with too little left to measure, the link counts as hidden."""
+    angles = [math.radians(30 + 2.0 * i) for i in range(50)]
+    seen = np.zeros((H, W), dtype=np.uint8)
+    cv2.circle(seen, tuple(PIVOT.astype(int)), int(visible * 100), 255, -1)
+    frames = [bar_frame(a) for a in angles]
+    for frame in frames[40:]:
+        frame[seen == 0] = 0
+    trust = [e.trust for e in DON(fps=FPS).run(frames)]
+    assert min(trust[30:41]) > 0.85  # the whole link, turning steadily
+    assert low <= min(trust[41:49]) and max(trust[41:49]) <= high
+
+
+def test_a_region_where_the_joint_cannot_turn_is_not_the_link() -> None:
+    """A second bar turns the other way on the far side of the pivot, along a ray through
+    it: without a joint range it can pass for the link (a flipped reading), with the range
+    it cannot."""
+    angles = sweep(3.0, 60, start_deg=40)
+    frames = []
+    for angle in angles:
+        frame = bar_frame(angle)
+        away = np.array([math.cos(-angle - 0.3), math.sin(angle + 0.3)])
+        cv2.line(frame, tuple(np.rint(PIVOT + 20 * away).astype(int)),
+                 tuple(np.rint(PIVOT + 110 * away).astype(int)), (255, 255, 255), 12)
+        frames.append(frame)
+    estimates = DON(fps=FPS, joint_range=(0.0, math.pi)).run(frames)
+    errors = [abs(math.degrees(e.angles[0] - a)) for e, a in zip(estimates, angles, strict=True)]
+    assert max(errors[10:30]) < 3.0 and max(errors[-10:]) < 3.0
+
+
 def test_motion_stopping_holds_the_last_angle() -> None:
     angles = sweep(3.0, 40, start_deg=40)
     frames = [bar_frame(a) for a in angles] + [bar_frame(angles[-1])] * 10

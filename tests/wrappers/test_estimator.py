@@ -37,8 +37,10 @@ def test_keep_frame_decides_whether_pixels_stay() -> None:
     assert obs["estimate"].shape == (6,) and obs["estimate"].dtype == np.float32
 
 
-def test_estimate_follows_the_servo_through_the_env() -> None:
-    env = DONObservation(servo_env(), keep_frame=False)
+@pytest.mark.parametrize("modality", ["rgb", "depth"])
+def test_estimate_follows_the_servo_through_the_env(modality: str) -> None:
+    """DON works on depth video as on colour (the paper ran both)."""
+    env = DONObservation(servo_env(modality=modality), keep_frame=False)
     fields = estimate_fields(1)
     obs, info = env.reset(seed=0)
     estimated, truth = [], []
@@ -56,6 +58,22 @@ def test_pd_on_don_drives_the_robot_close_to_the_human() -> None:
     env = DONObservation(servo_env(), keep_frame=False)
     trajectory = run_episode(env, PDController(env, EstimateTarget(env)), seed=0)
     assert angle_rmse_deg(trajectory.robot[30:], trajectory.target[30:]) < 4.0
+
+
+def test_render_draws_the_estimate_on_the_video_half_only() -> None:
+    env = DONObservation(servo_env(n_frames=40, render_mode="rgb_array"), keep_frame=False)
+    env.reset(seed=0)
+    for _ in range(30):
+        env.step(np.zeros(1, dtype=np.float32))
+    assert env.last_estimate is not None and env.last_estimate.keypoints is not None
+    plain, drawn = env.unwrapped.render(), env.render()
+    width = plain.shape[1] // 2
+    assert drawn.shape == plain.shape and drawn.dtype == np.uint8
+    assert np.array_equal(drawn[:, width:], plain[:, width:])  # the robot is left alone
+    changed = np.any(drawn[:, :width] != plain[:, :width], axis=-1)
+    # The link is drawn where DON puts its tip (input pixels, x then y).
+    tip_x, tip_y = np.rint(env.last_estimate.keypoints[-1]).astype(int)
+    assert changed[tip_y - 3:tip_y + 4, tip_x - 3:tip_x + 4].any()
 
 
 def test_wrapper_refuses_an_env_without_frames() -> None:
