@@ -197,6 +197,20 @@ def _bench_don(args: argparse.Namespace, result: dict[str, object]) -> int:
 
 
 def cmd_mimic(args: argparse.Namespace) -> int:
+    """`imimic mimic`; footage that cannot be used is reported in one line (exit code 2)."""
+    from imimic_gym.clips.video import VideoFormatError, VideoOpenError
+
+    if args.estimator == "don" and args.links != 1:
+        raise SystemExit(f"imimic mimic: DON follows one moving link so far; --links "
+                         f"{args.links} needs another estimator")
+    try:
+        return _mimic(args)
+    except (VideoOpenError, VideoFormatError) as err:
+        print(f"imimic mimic: {err}", file=sys.stderr)
+        return 2
+
+
+def _mimic(args: argparse.Namespace) -> int:
     import math
 
     from imimic_gym.clips.video import stream_video
@@ -225,7 +239,9 @@ def cmd_mimic(args: argparse.Namespace) -> int:
             servo.close()
         raise
     print(f"imimic mimic: {clip.meta['path']} ({clip.width}x{clip.height}, {clip.fps:g} fps"
-          f"{', live' if live else f', {len(clip)} frames'}), estimator {args.estimator}, "
+          f"{', live' if live else ''}"
+          f"{f', {len(clip)} frames' if clip.frames.length_known else ''}), "
+          f"estimator {args.estimator}, "
           f"control {args.control}" + (" (Ctrl-C stops and keeps the outputs)" if live else ""))
     params = {"pivot": tuple(args.pivot)} if args.pivot else {}
     summary = run_mimic(clip, args.out, estimator=args.estimator, control=args.control,

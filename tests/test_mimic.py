@@ -4,6 +4,7 @@ import csv
 import json
 import math
 import os
+import re
 
 import cv2
 import numpy as np
@@ -49,12 +50,27 @@ def test_mimic_video_writes_the_video_plot_and_csv(servo_clip, servo_mp4, tmp_pa
     assert summary["frames_per_s"] > 0 and summary["skipped_frames"] == 0
 
 
-def test_a_video_shorter_than_dons_window_is_named(servo_clip, tmp_path) -> None:
+def test_a_video_shorter_than_dons_window_is_named(servo_clip, tmp_path, capsys) -> None:
     path = write_video(tmp_path / "short.mp4", servo_clip.frames[:7], servo_clip.fps)
-    with pytest.raises(VideoFormatError,
-                       match=r"short\.mp4 has 7 frames, fewer than the 11 that DON \(window "
-                             r"10\) needs"):
-        main(["mimic", "--video", str(path), "--out", str(tmp_path / "out")])
+    message = r"short\.mp4 has 7 frames, fewer than the 11 that DON \(window 10\) needs"
+    clip = stream_video(path)
+    with pytest.raises(VideoFormatError, match=message):
+        run_mimic(clip, tmp_path / "out", progress=False)
+    assert clip.frames.reader.capture is None
+    # The command says it in one line, no traceback, and exits with 2.
+    assert main(["mimic", "--video", str(path), "--out", str(tmp_path / "out")]) == 2
+    assert re.search(message, capsys.readouterr().err)
+
+
+def test_a_missing_video_is_one_line_from_the_command(tmp_path, capsys) -> None:
+    assert main(["mimic", "--video", str(tmp_path / "gone.mp4")]) == 2
+    err = capsys.readouterr().err
+    assert "cannot open video" in err and "gone.mp4: no such file" in err
+
+
+def test_more_links_than_don_follows_is_refused() -> None:
+    with pytest.raises(SystemExit, match="DON follows one moving link so far; --links 2"):
+        main(["mimic", "--video", "x.mp4", "--links", "2"])
 
 
 def test_a_stream_that_ends_early_keeps_everything_written(tmp_path) -> None:
