@@ -67,8 +67,9 @@ class ImitateVideoEnv(gym.Env, EzPickle):
     `annotations="my.json"` for ground truth; `imimic_gym.clips.video`).
 
     A clip without ground truth (a video without annotations, a live camera) runs too:
-    `info["has_truth"]` is False, `reward_tracking` is 0, and `target_angles` and
-    `tracking_error_deg` are NaN (unknown, not zero). The robot is then built from the
+    `info["has_truth"]` is False, `reward_tracking` is 0, and `info` has no
+    `target_angles` or `tracking_error_deg` (unknown: not zero, and not NaN, which would
+    make equal episodes compare unequal). The robot is then built from the
     clip's `meta` (`reference_direction`, `joint_ranges`). A `Clip` whose frames are a
     `FrameStream` (`clips.video.stream_video`) is read forward only: one episode, no
     second reset, and `StreamEndedError` from `step` if the source ends early.
@@ -262,9 +263,10 @@ class ImitateVideoEnv(gym.Env, EzPickle):
 
     def target_angles(self, frame_index: int) -> np.ndarray:
         """The demonstrator's true joint angles (rad) at ``frame_index`` (clamped to the
-        clip); NaN for a clip without truth."""
+        clip). Raises ValueError for a clip without truth."""
         if self.clip.truth is None:
-            return np.full(self.arm.n_links, np.nan)
+            raise ValueError(f"clip {self.clip.meta.get('path', self.clip.meta)} has no ground "
+                             "truth: no target angles (load it with annotations)")
         i = min(max(frame_index, 0), len(self.clip) - 1)
         return self.clip.truth.angles[i].copy()
 
@@ -275,26 +277,28 @@ class ImitateVideoEnv(gym.Env, EzPickle):
             "qvel": self.data.qvel.clip(-MAX_OBSERVED_SPEED, MAX_OBSERVED_SPEED),
         }
 
-    def _tracking(self) -> tuple[np.ndarray, np.ndarray]:
-        """The demonstrator's angles in the current frame, and the robot's wrapped error
-        (NaN without truth)."""
+    def _tracking(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The demonstrator's angles in the current frame and the robot's wrapped error;
+        None without truth."""
         assert self.frame_index is not None
         if self.clip.truth is None:
-            unknown = np.full(self.arm.n_links, np.nan)
-            return unknown, unknown
+            return None
         target = self.clip.truth.angles[self.frame_index]
         return target, wrap_angle(self.data.qpos - target)
 
-    def _info(self, target: np.ndarray, error: np.ndarray) -> dict[str, Any]:
+    def _info(self, tracking: tuple[np.ndarray, np.ndarray] | None) -> dict[str, Any]:
         truth = self.clip.truth
-        return {
-            "tracking_error_deg": math.degrees(math.sqrt(float(error @ error) / error.size)),
+        info: dict[str, Any] = {
             "frame_index": self.frame_index,
-            "target_angles": target.copy(),
             "occlusion": float(truth.occlusion[self.frame_index]) if truth is not None else 0.0,
             "clip_seed": int(self.clip.meta.get("seed", 0)),
             "has_truth": truth is not None,
         }
+        if tracking is not None:
+            target, error = tracking
+            info["tracking_error_deg"] = math.degrees(math.sqrt(float(error @ error) / error.size))
+            info["target_angles"] = target.copy()
+        return info
 
     # Gymnasium API -------------------------------------------------------------------
     def reset(
@@ -320,7 +324,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
             self.data.ctrl[:] = self.data.qpos  # the servo holds the start pose
         mujoco.mj_forward(self.model, self.data)
         self.frame_index, self._last_frame = 0, len(self.clip) - 1
-        return self._obs(), self._info(*self._tracking())
+        return self._obs(), self._info(self._tracking())
 
     def step(
         self, action: np.ndarray
@@ -341,10 +345,11 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         mujoco.mj_step(self.model, self.data, nstep=self.n_substeps)
         self.frame_index += 1
 
-        target, error = self._tracking()
-        info = self._info(target, error)
-        reward_tracking = (-self.tracking_weight * float(error @ error)
-                           if self.clip.truth is not None else 0.0)
+        tracking = self._tracking()
+        info = self._info(tracking)
+        reward_tracking = 0.0
+        if tracking is not None:
+            reward_tracking = -self.tracking_weight * float(tracking[1] @ tracking[1])
         reward_ctrl = -self.ctrl_cost_weight * float(a @ a)
         info["reward_tracking"], info["reward_ctrl"] = reward_tracking, reward_ctrl
         truncated = self.frame_index == self._last_frame

@@ -207,7 +207,9 @@ def test_env_runs_a_video_with_and_without_annotations(servo_clip, servo_mp4, tm
     assert obs["frame"].shape == (240, 320, 3) and info["has_truth"] is False
     _, reward, _, _, info = env.step(np.zeros(1, dtype=np.float32))
     assert info["reward_tracking"] == 0.0 and reward == info["reward_ctrl"]
-    assert math.isnan(info["tracking_error_deg"])
+    assert "tracking_error_deg" not in info and "target_angles" not in info
+    with pytest.raises(ValueError, match=r"servo\.mp4 has no ground truth"):
+        env.unwrapped.target_angles(1)
     # The default geometry: reference down the image, the paper's 120-degree servo range.
     inner = env.unwrapped
     assert inner.arm.reference_direction == pytest.approx(-math.pi / 2)
@@ -231,3 +233,15 @@ def test_env_runs_a_video_with_and_without_annotations(servo_clip, servo_mp4, tm
 def test_annotations_need_a_video_path(servo_clip) -> None:
     with pytest.raises(ValueError, match=r"annotations='a\.json' belong to a video"):
         gym.make("ImitateVideo-v0", clip=servo_clip, annotations="a.json")
+
+
+def test_a_video_env_passes_gymnasiums_checker(servo_mp4) -> None:
+    import warnings
+
+    from gymnasium.utils.env_checker import check_env
+
+    env = gym.make("ImitateVideo-v0", clip=str(servo_mp4), n_frames=20, render_mode="rgb_array")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(env.unwrapped)
+    assert len(env.unwrapped.clip) == 20
