@@ -162,3 +162,20 @@ def test_help_lists_mimic_and_its_options(capsys) -> None:
     for option in ("--video", "--camera", "--estimator", "--links", "--serial", "--baud",
                    "--reference-direction", "--joint-range"):
         assert option in text
+
+
+def test_the_command_drives_a_servo_with_its_range(servo_mp4, tmp_path) -> None:
+    controller, device = os.openpty()
+    try:
+        # --serial paces the file at its own 30 fps; one second of it is enough here.
+        assert main(["mimic", "--video", str(servo_mp4), "--reference-direction", "90",
+                     "--max-seconds", "1", "--serial", os.ttyname(device), "--baud", "57600",
+                     "--servo-range", "10", "100", "--out", str(tmp_path)]) == 0
+        os.set_blocking(controller, False)
+        lines = os.read(controller, 65536).decode().splitlines()
+    finally:
+        os.close(controller)
+        os.close(device)
+    summary = json.loads((tmp_path / "mimic.json").read_text())
+    assert summary["frames"] == 30 and summary["servo_commands_sent"] == len(lines) > 3
+    assert all(10.0 <= float(line.split()[1]) <= 100.0 for line in lines)

@@ -187,6 +187,12 @@ def test_unlabelled_frames_are_interpolated_and_marked(tmp_path) -> None:
     np.testing.assert_allclose(np.degrees(truth.angles[:, 0]), [0, 10, 20, 30, 40], atol=1e-4)
     assert not truth.visible[2].any() and truth.visible[3].all()
     assert np.degrees(truth.angular_velocity[2, 0]) == pytest.approx(300.0)
+    # Two links: the upper arm hangs straight down (q1 = 0 from the torso's axis), then
+    # the elbow as before.
+    two = truth_from_coco(tmp_path / "a.json", 5, 30.0, n_links=2,
+                          reference_direction=-math.pi / 2)
+    np.testing.assert_allclose(np.degrees(two.angles), [[0, 10 * k] for k in range(5)],
+                               atol=1e-4)
 
 
 def test_bad_annotation_files_are_named(tmp_path) -> None:
