@@ -82,6 +82,7 @@ class MimicLog:
 
 
 def csv_header(n: int) -> list[str]:
+    """mimic.csv's columns for ``n`` joints (angle-like ones suffixed 1..n when n > 1)."""
     def joints(name: str) -> list[str]:
         return [f"{name}{j + 1}" for j in range(n)] if n > 1 else [name]
 

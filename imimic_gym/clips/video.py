@@ -264,11 +264,12 @@ def load_video(
 
     ranges = tuple(joint_ranges) if joint_ranges is not None else (DEFAULT_JOINT_RANGE,) * n_links
     reader = VideoReader(source, fps=fps)
+    stream = iter(reader)
     frames = []
-    for frame in reader:
+    for frame in stream:
         frames.append(frame)
         if max_frames is not None and len(frames) >= max_frames:
-            reader.close()
+            stream.close()  # releases the capture now
             break
     meta = {**video_meta(reader, n_links, reference_direction, ranges),
             "skipped_frames": reader.skipped_frames}
@@ -296,7 +297,8 @@ class FrameStream:
     dtype = np.dtype(np.uint8)
     ndim = 4
 
-    def __init__(self, reader: VideoReader, buffer: int = 32, max_frames: int | None = None):
+    def __init__(self, reader: VideoReader, buffer: int = 32,
+                 max_frames: int | None = None) -> None:
         if buffer < 2:
             raise ValueError(f"buffer must hold at least 2 frames, got {buffer}")
         self.reader = reader
