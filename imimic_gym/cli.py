@@ -1,4 +1,4 @@
-"""The `imimic` command: demo, clip, scenarios, bench."""
+"""The `imimic` command: demo, clip, scenarios, eval, bench, mimic."""
 
 from __future__ import annotations
 
@@ -196,6 +196,126 @@ def _bench_don(args: argparse.Namespace, result: dict[str, object]) -> int:
     return 0
 
 
+def cmd_mimic(args: argparse.Namespace) -> int:
+    """`imimic mimic`; footage that cannot be used is reported in one line (exit code 2)."""
+    from imimic_gym.clips.video import VideoFormatError, VideoOpenError
+
+    if args.estimator == "don" and args.links != 1:
+        raise SystemExit(f"imimic mimic: DON follows one moving link so far; --links "
+                         f"{args.links} needs another estimator")
+    try:
+        return _mimic(args)
+    except (VideoOpenError, VideoFormatError) as err:
+        print(f"imimic mimic: {err}", file=sys.stderr)
+        return 2
+
+
+def _mimic(args: argparse.Namespace) -> int:
+    import math
+
+    from imimic_gym.clips.video import stream_video
+    from imimic_gym.mimic import run_mimic
+
+    source = args.video if args.video is not None else args.camera
+    live = args.video is None
+    servo = None
+    if args.serial:
+        from imimic_gym.servo import ServoBridge
+
+        servo = ServoBridge(args.serial, baud=args.baud, servo_range_deg=tuple(args.servo_range),
+                            zero_deg=args.servo_zero)
+        print(f"  servo bridge on {args.serial} at {args.baud} baud "
+              f"({'open' if servo.connected else 'not open yet: retrying'})")
+    low, high = args.joint_range
+    try:
+        clip = stream_video(
+            source, n_links=args.links,
+            reference_direction=math.radians(args.reference_direction),
+            joint_ranges=[(math.radians(low), math.radians(high))] * args.links, fps=args.fps,
+            max_seconds=args.max_seconds,
+        )
+    except BaseException:
+        if servo is not None:
+            servo.close()
+        raise
+    print(f"imimic mimic: {clip.meta['path']} ({clip.width}x{clip.height}, {clip.fps:g} fps"
+          f"{', live' if live else ''}"
+          f"{f', {len(clip)} frames' if clip.frames.length_known else ''}), "
+          f"estimator {args.estimator}, "
+          f"control {args.control}" + (" (Ctrl-C stops and keeps the outputs)" if live else ""))
+    params = {"pivot": tuple(args.pivot)} if args.pivot else {}
+    summary = run_mimic(clip, args.out, estimator=args.estimator, control=args.control,
+                        estimator_params=params, servo=servo,
+                        realtime=not live and (args.realtime or servo is not None))
+    out = Path(args.out)
+    print(f"{summary['ended']}: wrote {out / 'mimic.mp4'}, {out / 'angles.png'}, "
+          f"{out / 'mimic.csv'}, {out / 'mimic.json'}")
+    _print_table({k: v for k, v in summary.items() if k not in ("source",)})
+    return 0
+
+
+def _add_mimic(sub: argparse._SubParsersAction) -> None:
+    from imimic_gym.mimic import ESTIMATOR_WRAPPERS
+
+    mimic = sub.add_parser(
+        "mimic", help="estimator + controller on a video file or live camera; drives the robot",
+        description="Run an estimator and a PD controller on real footage, frame by frame, "
+                    "driving the simulated arm (and, with --serial, a real servo arm). Writes "
+                    "into --out: mimic.mp4 (the footage with the estimated link drawn on it, "
+                    "beside the robot), angles.png (estimate vs robot), mimic.csv (per frame: "
+                    "time, estimated angle, omega, torque, eta, robot angle, latency) and "
+                    "mimic.json (frames/s, latency). Footage of unknown geometry gets "
+                    "defaults: the reference link points down the image and the joint spans "
+                    "the paper's 120-degree servo range around it; override them below. "
+                    "Memory stays bounded however long a camera runs.",
+    )
+    where = mimic.add_mutually_exclusive_group(required=True)
+    where.add_argument("--video", default=None, metavar="FILE",
+                       help="a recorded video (anything OpenCV reads) or an image pattern "
+                            "such as frames_%%04d.png")
+    where.add_argument("--camera", default=None, metavar="INDEX|URL",
+                       help="a live camera index (0) or stream URL; shows frames/s and "
+                            "latency, stops on Ctrl-C or when the camera disappears")
+    mimic.add_argument("--estimator", default="don", choices=sorted(ESTIMATOR_WRAPPERS),
+                       help="the vision estimator (default: %(default)s)")
+    mimic.add_argument("--links", type=int, default=1,
+                       help="moving links to copy (default: %(default)s; DON handles 1)")
+    mimic.add_argument("--control", default="position",
+                       choices=("position", "velocity", "torque"),
+                       help="robot actuation (default: %(default)s, the paper's servo)")
+    mimic.add_argument("--reference-direction", type=float, default=-90.0, metavar="DEG",
+                       help="image direction of the fixed reference link, degrees CCW from "
+                            "image right (default: %(default)s = image down)")
+    mimic.add_argument("--joint-range", type=float, nargs=2, default=(-60.0, 60.0),
+                       metavar=("LOW", "HIGH"),
+                       help="joint range in degrees from the reference (default: -60 60, "
+                            "the paper's 120-degree servo)")
+    mimic.add_argument("--pivot", type=float, nargs=2, default=None, metavar=("X", "Y"),
+                       help="the joint's pixel position if known (default: found by DON)")
+    mimic.add_argument("--fps", type=float, default=None,
+                       help="frame rate for sources that report none (image patterns; "
+                            "cameras default to 30)")
+    mimic.add_argument("--max-seconds", type=float, default=None,
+                       help="stop after this much footage, seconds (default: the whole "
+                            "file; a camera runs until Ctrl-C)")
+    mimic.add_argument("--serial", default=None, metavar="PORT",
+                       help="also drive a servo controller on this serial port "
+                            "(protocol: imimic_gym/servo.py; sketch: firmware/servo_arm/)")
+    mimic.add_argument("--baud", type=int, default=115200,
+                       help="serial speed (default: %(default)s)")
+    mimic.add_argument("--servo-range", type=float, nargs=2, default=(0.0, 120.0),
+                       metavar=("LOW", "HIGH"),
+                       help="the servo's angle range, degrees (default: 0 120)")
+    mimic.add_argument("--servo-zero", type=float, default=60.0, metavar="DEG",
+                       help="servo angle of joint angle 0 (default: %(default)s)")
+    mimic.add_argument("--realtime", action="store_true",
+                       help="play a file at its own frame rate rather than as fast as "
+                            "possible (always on with --serial: the servo moves at the "
+                            "person's speed)")
+    mimic.add_argument("--out", default="mimic_out", help="output folder (default: %(default)s)")
+    mimic.set_defaults(func=cmd_mimic)
+
+
 def build_parser() -> argparse.ArgumentParser:
     from imimic_gym.clips.scenarios import scenario_names
 
@@ -281,6 +401,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--steps", type=int, default=3000, help="steps per timed run")
     bench.add_argument("--repeats", type=int, default=5, help="alternating timed runs per env")
     bench.set_defaults(func=cmd_bench)
+    _add_mimic(sub)
     return parser
 
 

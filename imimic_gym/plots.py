@@ -12,8 +12,10 @@ from imimic_gym.rollout import Trajectory
 __all__ = ["plot_tracking"]
 
 
-def plot_tracking(trajectory: Trajectory, path: str | Path, title: str = "") -> Path:
-    """Two panels over time: human vs robot angle per joint (deg), and the error (deg).
+def plot_tracking(trajectory: Trajectory, path: str | Path, title: str = "",
+                  target_label: str = "human") -> Path:
+    """Two panels over time: target (the human's true angle, or ``target_label``) vs robot
+    angle per joint (deg), and the error (deg).
 
     Frames where more than 10% of the moving links are hidden are shaded.
     """
@@ -29,7 +31,7 @@ def plot_tracking(trajectory: Trajectory, path: str | Path, title: str = "") -> 
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for j in range(human.shape[1]):
         c = colours[j % len(colours)]
-        ax_angle.plot(t, human[:, j], color=c, lw=2, alpha=0.45, label=f"human q{j + 1}")
+        ax_angle.plot(t, human[:, j], color=c, lw=2, alpha=0.45, label=f"{target_label} q{j + 1}")
         ax_angle.plot(t, robot[:, j], color=c, lw=1.2, ls="--", label=f"robot q{j + 1}")
         ax_error.plot(t, error[:, j], color=c, lw=1.2, label=f"q{j + 1}")
     hidden = trajectory.occlusion > 0.1
@@ -39,7 +41,7 @@ def plot_tracking(trajectory: Trajectory, path: str | Path, title: str = "") -> 
                             transform=ax.get_xaxis_transform(), label="occluded > 10%")
         ax.grid(alpha=0.3)
     ax_angle.set_ylabel("joint angle (deg)")
-    ax_error.set_ylabel("robot - human (deg)")
+    ax_error.set_ylabel(f"robot - {target_label} (deg)")
     ax_error.set_xlabel("time (s)")
     ax_error.axhline(0, color="black", lw=0.6)
     ax_angle.legend(loc="upper right", fontsize=8, ncol=2)

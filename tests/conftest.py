@@ -11,3 +11,21 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 @pytest.fixture(scope="session", autouse=True)
 def private_clip_cache(tmp_path_factory: pytest.TempPathFactory) -> None:
     os.environ["IMIMIC_CACHE_DIR"] = str(tmp_path_factory.mktemp("clip_cache"))
+
+
+@pytest.fixture(scope="session")
+def servo_clip():
+    """The paper's servo scenario, 90 frames (3 s): DON tracks it to about a degree."""
+    from imimic_gym.clips.cache import load_clip
+    from imimic_gym.clips.scenarios import get_scenario
+
+    return load_clip(get_scenario("exp2-servo", n_frames=90), progress=False)
+
+
+@pytest.fixture(scope="session")
+def servo_mp4(servo_clip, tmp_path_factory: pytest.TempPathFactory):
+    """``servo_clip`` recorded to an mp4 with OpenCV (mp4v, lossy)."""
+    from imimic_gym.clips.video import write_video
+
+    return write_video(tmp_path_factory.mktemp("video") / "servo.mp4", servo_clip.frames,
+                       servo_clip.fps)

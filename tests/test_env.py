@@ -227,12 +227,15 @@ def test_a_clip_object_can_be_the_scenario() -> None:
         gym.make("ImitateVideo-v0", scenario=clip, n_links=3)
 
 
-def test_a_clip_without_truth_is_refused_with_the_reason() -> None:
+def test_a_clip_without_truth_runs_with_zero_tracking_reward() -> None:
     from imimic_gym.clips import Clip
 
     clip = Clip(frames=np.zeros((5, 24, 32, 3), dtype=np.uint8), fps=30.0, meta={"source": "x"})
-    with pytest.raises(ValueError, match="needs a clip with ground truth"):
-        gym.make("ImitateVideo-v0", scenario=clip)
+    env = gym.make("ImitateVideo-v0", scenario=clip)
+    _, info = env.reset(seed=0)
+    assert info["has_truth"] is False and "target_angles" not in info
+    _, reward, _, _, info = env.step(np.array([0.5], dtype=np.float32))
+    assert info["reward_tracking"] == 0.0 and reward == info["reward_ctrl"] < 0
 
 
 def test_only_a_few_clips_stay_in_memory() -> None:

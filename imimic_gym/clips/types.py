@@ -76,7 +76,8 @@ class Clip:
     """A video of a demonstrator, and what is known about it.
 
     Attributes:
-        frames: (T, H, W, 3) uint8 RGB.
+        frames: (T, H, W, 3) uint8 RGB: an array, or a `clips.video.FrameStream` (same
+            dtype and shape, read forward on demand from a file or camera).
         fps: frames per second, a float (29.97 stays 29.97).
         depth: (T, H, W) float32 distance along the camera axis in metres, or None.
         truth: ground truth, or None for footage without annotations.

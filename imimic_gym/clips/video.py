@@ -1,23 +1,402 @@
-"""Video files through OpenCV: frames flow in as (H, W, 3) uint8 RGB arrays."""
+"""Video files and cameras through OpenCV: frames flow in and out as (H, W, 3) uint8 RGB.
+
+Reading:
+- `VideoReader` streams a recorded file (anything OpenCV's FFmpeg backend reads: mp4,
+  avi, mkv, mjpeg...), an image sequence (a printf pattern such as ``frame_%04d.png``,
+  read by OpenCV's image-sequence backend, each image at its own size), a camera index
+  (``0``) or a stream URL (``rtsp://...``). One frame is held at a time; the capture is
+  released in ``finally`` when the stream ends, fails or is abandoned.
+- `load_video` reads a whole file into a `Clip` (random access: what an RL env resets
+  into); `stream_video` wraps a reader in a `Clip` whose frames are a `FrameStream`, read
+  on demand and kept in a bounded buffer, so a live camera never needs the whole stream
+  in memory.
+
+Problems are named: a source that cannot be opened raises `VideoOpenError` (an OSError);
+one with no decodable frame or whose resolution changes mid-stream raises
+`VideoFormatError` (a ValueError); both messages name the source. A frame that fails to
+decode in the middle of a file is skipped and counted (``skipped_frames``), not fatal:
+after up to ``max_consecutive_failures`` failed reads the stream is taken to have ended.
+
+Footage without known geometry gets documented defaults, overridable by the caller:
+the reference link points down the image (`DEFAULT_REFERENCE_DIRECTION`: an upper arm
+hanging by the body, or a servo horn's zero mark filmed pointing down) and every joint
+spans the paper's 120-degree servo range centred on it (`DEFAULT_JOINT_RANGE`).
+"""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import math
+import time
+from collections import deque
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
 
-__all__ = ["VideoWriteError", "write_video"]
+from imimic_gym.clips.types import Clip
+
+__all__ = [
+    "DEFAULT_JOINT_RANGE", "DEFAULT_REFERENCE_DIRECTION", "FrameStream", "StreamEndedError",
+    "VideoFormatError", "VideoOpenError", "VideoReader", "VideoWriteError", "load_video",
+    "require_frames", "stream_video", "video_meta", "write_video",
+]
+
+DEFAULT_REFERENCE_DIRECTION = -math.pi / 2  # image down (CCW from image right)
+DEFAULT_JOINT_RANGE = (-math.pi / 3, math.pi / 3)  # the paper's 120-degree servo, centred
+LIVE_FPS = 30.0  # a camera that does not report its rate is taken to run at this
+UNBOUNDED = 2**31 - 1  # the nominal length of a stream whose length is unknown (frames)
 
 
 class VideoWriteError(OSError):
     """A video file could not be written; the message names the path and the reason."""
 
 
+class VideoOpenError(OSError):
+    """A video source could not be opened; the message names it and the reason."""
+
+
+class VideoFormatError(ValueError):
+    """A video opened but its content is unusable (no frames, a resolution change, too
+    short); the message names the source and the problem."""
+
+
+class StreamEndedError(IndexError):
+    """A `FrameStream` ran out (the file ended early or the camera disappeared)."""
+
+
+def _is_live(source: str | int | Path) -> bool:
+    if isinstance(source, int):
+        return True
+    text = str(source)
+    return text.isdigit() or "://" in text
+
+
+def _describe(source: str | int | Path) -> str:
+    if isinstance(source, int) or str(source).isdigit():
+        return f"camera {int(source)}"
+    return str(source)
+
+
+class VideoReader:
+    """Frames of a video file, image sequence, camera or stream URL, one at a time.
+
+    Use as a context manager or iterate it directly (the capture is released when the
+    iteration ends, raises or is closed)::
+
+        with VideoReader("clip.mp4") as video:
+            for frame in video:      # (H, W, 3) uint8 RGB
+                ...
+
+    Args:
+        source: a path, a printf image pattern, a camera index (int or "0") or a URL.
+        fps: the frame rate to use when the source does not report one (image
+            sequences; cameras default to `LIVE_FPS`). A file's own rate wins.
+        max_consecutive_failures: failed reads in a row after which the stream has
+            ended; fewer, followed by a good frame, are skipped corrupt frames.
+
+    Attributes (after opening): ``fps`` (float, frames/s), ``width``, ``height``
+    (pixels, of the first frame once read, else as the container reports),
+    ``frame_count`` (the container's count, None when unknown or live),
+    ``frames_read``, ``skipped_frames``, ``live``.
+    """
+
+    def __init__(self, source: str | int | Path, fps: float | None = None,
+                 max_consecutive_failures: int = 8) -> None:
+        if fps is not None and not (math.isfinite(fps) and fps > 0):
+            raise ValueError(f"fps must be a positive number of frames/s, got {fps!r}")
+        self.source, self.name, self.live = source, _describe(source), _is_live(source)
+        self.requested_fps = fps
+        self.max_consecutive_failures = max_consecutive_failures
+        self.capture: cv2.VideoCapture | None = None
+        self.frames_read = self.skipped_frames = 0
+        self.shape: tuple[int, ...] | None = None
+
+    def open(self) -> VideoReader:
+        if self.capture is not None:
+            return self
+        if not self.live:
+            path = Path(str(self.source))
+            pattern = "%" in path.name
+            if not pattern and not path.exists():
+                raise VideoOpenError(f"cannot open video {self.name}: no such file")
+            if not pattern and path.is_dir():
+                raise VideoOpenError(f"cannot open video {self.name}: it is a directory")
+            if not pattern and path.stat().st_size == 0:
+                raise VideoOpenError(f"cannot open video {self.name}: the file is empty")
+            backend = cv2.CAP_IMAGES if pattern else cv2.CAP_FFMPEG
+            capture = cv2.VideoCapture(str(path), backend)
+        else:
+            index = int(self.source) if str(self.source).isdigit() else str(self.source)
+            capture = cv2.VideoCapture(index)
+        if not capture.isOpened():
+            capture.release()
+            reason = ("no camera answers there" if self.live
+                      else "OpenCV cannot decode it (not a video, or an unsupported codec)")
+            raise VideoOpenError(f"cannot open video {self.name}: {reason}")
+        if self.live:
+            capture.set(cv2.CAP_PROP_BUFFERSIZE, 1)  # the newest frame, not a backlog
+        reported = capture.get(cv2.CAP_PROP_FPS)
+        if math.isfinite(reported) and reported > 0 and not self.live:
+            self.fps = float(reported)
+        elif self.requested_fps is not None:
+            self.fps = float(self.requested_fps)
+        elif self.live:
+            self.fps = float(reported) if math.isfinite(reported) and reported > 0 else LIVE_FPS
+        else:
+            capture.release()
+            raise VideoFormatError(f"{self.name} does not report its frame rate; pass fps=")
+        count = capture.get(cv2.CAP_PROP_FRAME_COUNT)
+        self.frame_count = int(count) if not self.live and 0 < count < 1e9 else None
+        self.width = int(capture.get(cv2.CAP_PROP_FRAME_WIDTH))
+        self.height = int(capture.get(cv2.CAP_PROP_FRAME_HEIGHT))
+        self.capture = capture
+        return self
+
+    def close(self) -> None:
+        if self.capture is not None:
+            self.capture.release()
+            self.capture = None
+
+    def __enter__(self) -> VideoReader:
+        return self.open()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _next_bgr(self) -> np.ndarray | None:
+        """The next decodable frame, skipping (and counting) corrupt ones; None at the end."""
+        assert self.capture is not None
+        failures = 0
+        while failures <= self.max_consecutive_failures:
+            ok, frame = self.capture.read()
+            if ok and frame is not None and frame.size:
+                self.skipped_frames += failures
+                return frame
+            failures += 1
+            if self.live:
+                time.sleep(0.05)  # a camera that hiccups gets a moment before it is given up
+        return None
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        self.open()
+        try:
+            while (bgr := self._next_bgr()) is not None:
+                if bgr.ndim == 2:
+                    bgr = cv2.cvtColor(bgr, cv2.COLOR_GRAY2BGR)
+                if self.shape is None:
+                    self.shape = bgr.shape
+                    self.height, self.width = bgr.shape[:2]
+                elif bgr.shape != self.shape:
+                    h, w = bgr.shape[:2]
+                    raise VideoFormatError(
+                        f"{self.name}: frame {self.frames_read + self.skipped_frames} is "
+                        f"{w}x{h} but the video started at {self.width}x{self.height}; "
+                        "a clip must keep one resolution"
+                    )
+                self.frames_read += 1
+                yield cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+            if self.frames_read == 0:
+                skipped = (f" ({self.skipped_frames} failed to decode)"
+                           if self.skipped_frames else "")
+                raise VideoFormatError(f"{self.name} has no frames that can be decoded{skipped}")
+        finally:
+            self.close()
+
+
+def require_frames(count: int, needed: int, source: str, why: str) -> None:
+    """Raise `VideoFormatError` naming ``source`` when it has fewer than ``needed`` frames."""
+    if count < needed:
+        raise VideoFormatError(
+            f"{source} has {count} frames, fewer than the {needed} that {why} needs"
+        )
+
+
+def video_meta(reader: VideoReader, n_links: int, reference_direction: float,
+               joint_ranges: Sequence[tuple[float, float]]) -> dict[str, Any]:
+    """A video clip's ``meta``: where it came from and the geometry a robot is built from."""
+    if len(joint_ranges) != n_links:
+        raise ValueError(f"joint_ranges needs one (low, high) per link ({n_links}), "
+                         f"got {len(joint_ranges)}")
+    return {
+        "source": "camera" if reader.live else "video",
+        "path": reader.name,
+        "scenario": Path(reader.name).stem if not reader.live else reader.name,
+        "seed": 0,
+        "n_links": n_links,
+        "demonstrator": "human",
+        "reference_direction": float(reference_direction),
+        "joint_ranges": [[float(lo), float(hi)] for lo, hi in joint_ranges],
+        "arm_plane": "vertical",
+    }
+
+
+def load_video(
+    source: str | Path,
+    annotations: str | Path | None = None,
+    *,
+    n_links: int = 1,
+    reference_direction: float = DEFAULT_REFERENCE_DIRECTION,
+    joint_ranges: Sequence[tuple[float, float]] | None = None,
+    fps: float | None = None,
+    max_frames: int | None = None,
+    side: str = "auto",
+) -> Clip:
+    """Read a recorded video into a `Clip`: frames (T, H, W, 3) uint8 RGB, the file's fps.
+
+    Args:
+        source: the file (or image pattern, see `VideoReader`).
+        annotations: a COCO-keypoints JSON with shoulder, elbow and wrist per frame (see
+            `imimic_gym.clips.annotations`); it becomes ``clip.truth``. None: no truth.
+        n_links: moving links the robot copies (1: the forearm, 2: upper arm and forearm).
+        reference_direction: image direction of the fixed reference link, rad CCW from
+            image right (default: image down).
+        joint_ranges: per link (low, high) rad; default `DEFAULT_JOINT_RANGE` each.
+        fps: frame rate for sources that report none.
+        max_frames: read at most this many frames (memory: T x H x W x 3 bytes).
+        side: which arm the annotations describe: "left", "right" or "auto".
+
+    ``meta`` holds ``reference_direction`` and ``joint_ranges`` (so the env builds a
+    matching robot) and ``skipped_frames`` (corrupt frames left out).
+    """
+    from imimic_gym.clips.annotations import truth_from_coco
+
+    ranges = tuple(joint_ranges) if joint_ranges is not None else (DEFAULT_JOINT_RANGE,) * n_links
+    reader = VideoReader(source, fps=fps)
+    stream = iter(reader)
+    frames = []
+    for frame in stream:
+        frames.append(frame)
+        if max_frames is not None and len(frames) >= max_frames:
+            stream.close()  # releases the capture now
+            break
+    meta = {**video_meta(reader, n_links, reference_direction, ranges),
+            "skipped_frames": reader.skipped_frames}
+    stacked = np.stack(frames)
+    truth = None
+    if annotations is not None:
+        truth = truth_from_coco(annotations, len(stacked), reader.fps, n_links,
+                                reference_direction, side=side)
+        meta["annotations"] = str(annotations)
+    return Clip(frames=stacked, fps=reader.fps, truth=truth, meta=meta)
+
+
+class FrameStream:
+    """The frames of a `VideoReader` as an array-like for `Clip.frames`, read on demand.
+
+    Indexing must move forward: frame i is read when first asked for, and only the last
+    ``buffer`` frames are kept, so memory stays bounded however long the stream runs.
+    Asking for a frame that has left the buffer raises IndexError (a live stream cannot
+    rewind); asking past the end raises `StreamEndedError`. ``len()`` is the container's
+    frame count (capped at ``max_frames``), else ``max_frames``, else `UNBOUNDED`
+    (``length_known`` is False: a live camera runs until it stops); a stream may end
+    sooner. The first frame is read on construction (it fixes the shape).
+    """
+
+    dtype = np.dtype(np.uint8)
+    ndim = 4
+
+    def __init__(self, reader: VideoReader, buffer: int = 32,
+                 max_frames: int | None = None) -> None:
+        if buffer < 2:
+            raise ValueError(f"buffer must hold at least 2 frames, got {buffer}")
+        self.reader = reader
+        self._iterator = iter(reader)
+        self._frames: deque[np.ndarray] = deque(maxlen=buffer)
+        self._next_index = 0
+        self.ended = False
+        self._pull()
+        first = self._frames[0]
+        limit = reader.frame_count if reader.frame_count is not None else max_frames
+        if limit is not None and max_frames is not None:
+            limit = min(limit, max_frames)
+        self.length_known = limit is not None
+        self._length = max(1, limit) if limit is not None else UNBOUNDED
+        self.shape = (self._length, *first.shape)
+
+    def _pull(self) -> bool:
+        try:
+            self._frames.append(next(self._iterator))
+        except StopIteration:
+            self.ended = True
+            return False
+        self._next_index += 1
+        return True
+
+    def __len__(self) -> int:
+        return self._length
+
+    def __getitem__(self, index: int) -> np.ndarray:
+        if not isinstance(index, (int, np.integer)) or index < 0:
+            raise TypeError(f"a FrameStream takes non-negative int indices, got {index!r}")
+        if index >= self._length:
+            raise StreamEndedError(f"{self.reader.name}: frame {index} is past the end")
+        while index >= self._next_index:
+            if not self._pull():
+                raise StreamEndedError(
+                    f"{self.reader.name} ended after {self._next_index} frames")
+        oldest = self._next_index - len(self._frames)
+        if index < oldest:
+            raise IndexError(f"{self.reader.name}: frame {index} has left the stream's buffer "
+                             f"(frames {oldest}-{self._next_index - 1}); a stream cannot rewind")
+        if index == self._length - 1:
+            self.close()  # the last frame: release the capture now, not at garbage collection
+        return self._frames[index - oldest]
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        """The frames from the oldest one still buffered to the end of the stream."""
+        index = self._next_index - len(self._frames)
+        while index < self._length:
+            try:
+                yield self[index]
+            except StreamEndedError:
+                return
+            index += 1
+
+    def close(self) -> None:
+        """Stop reading and release the capture (also done when the stream ends)."""
+        self._iterator.close()
+        self.reader.close()
+
+
+def stream_video(
+    source: str | int | Path,
+    *,
+    n_links: int = 1,
+    reference_direction: float = DEFAULT_REFERENCE_DIRECTION,
+    joint_ranges: Sequence[tuple[float, float]] | None = None,
+    fps: float | None = None,
+    max_frames: int | None = None,
+    max_seconds: float | None = None,
+    buffer: int = 32,
+) -> Clip:
+    """A `Clip` over a file, camera or URL whose frames are a `FrameStream`: bounded
+    memory, forward-only, no truth. Arguments as in `load_video`; ``max_frames`` bounds
+    the run, as does ``max_seconds`` of footage at the source's fps (a live source
+    without either runs until it stops). Close it with
+    ``clip.frames.close()`` (the capture is also released when the stream ends)."""
+    ranges = tuple(joint_ranges) if joint_ranges is not None else (DEFAULT_JOINT_RANGE,) * n_links
+    reader = VideoReader(source, fps=fps).open()
+    if max_seconds is not None:
+        limit = max(1, round(max_seconds * reader.fps))
+        max_frames = limit if max_frames is None else min(max_frames, limit)
+    try:
+        frames = FrameStream(reader, buffer=buffer, max_frames=max_frames)
+    except BaseException:
+        reader.close()
+        raise
+    meta = video_meta(reader, n_links, reference_direction, ranges)
+    return Clip(frames=frames, fps=reader.fps, meta=meta)  # type: ignore[arg-type]
+
+
 def write_video(path: str | Path, frames: Iterable[np.ndarray], fps: float) -> Path:
     """Write RGB frames to ``path`` (mp4 with the ``mp4v`` codec; other suffixes as OpenCV
-    maps them). All frames must share one (H, W, 3) uint8 shape. Returns the path."""
+    maps them). All frames must share one (H, W, 3) uint8 shape. Returns the path.
+
+    ``frames`` may be a generator: each frame is written as it comes, so a long or live
+    run needs no memory for them, and the file is finalised even if the generator raises
+    (Ctrl-C included): what was written is kept."""
     path = Path(path)
     writer = None
     shape = None

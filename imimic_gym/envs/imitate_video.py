@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import replace
+from pathlib import Path
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -30,6 +32,20 @@ MAX_OBSERVED_SPEED = 200.0  # rad/s; the joint-velocity sensor saturates here
 CLIPS_IN_MEMORY = 4
 
 
+def clip_arm(clip: Clip, control: str) -> ArmSpec:
+    """A robot matching ``clip``: its demonstrator's arm, with the reference direction
+    and joint ranges of ``clip.meta`` where the clip states them (recorded video)."""
+    arm = ClipSpec(demonstrator=clip.meta.get("demonstrator", "human"),
+                   n_links=clip.n_links).robot_arm(control)
+    changes: dict[str, Any] = {}
+    if "reference_direction" in clip.meta:
+        changes["reference_direction"] = float(clip.meta["reference_direction"])
+    if "joint_ranges" in clip.meta:
+        changes["joint_ranges"] = tuple((float(lo), float(hi))
+                                        for lo, hi in clip.meta["joint_ranges"])
+    return replace(arm, **changes) if changes else arm
+
+
 def depth_to_frame(depth: np.ndarray) -> np.ndarray:
     """(T, H, W) metres to (T, H, W, 3) uint8, near = bright, stretched between the clip's
     1st and 99th depth percentiles (one fixed mapping for the whole clip)."""
@@ -46,7 +62,17 @@ class ImitateVideoEnv(gym.Env, EzPickle):
     links should move the same way at the same time ("controlling by showing", the
     i-Mimic paper). The agent sees the video frame and the robot's own joint state. One
     step is one video frame; the physics runs in between. Clips are rendered synthetic
-    scenarios with ground truth (the paper's experiments 1-3 and more) or a `Clip` object.
+    scenarios with ground truth (the paper's experiments 1-3 and more), a `Clip` object,
+    or a recorded video (`clip="my.mp4"`, optionally with COCO-keypoints
+    `annotations="my.json"` for ground truth; `imimic_gym.clips.video`).
+
+    A clip without ground truth (a video without annotations, a live camera) runs too:
+    `info["has_truth"]` is False, `reward_tracking` is 0, and `info` has no
+    `target_angles` or `tracking_error_deg` (unknown: not zero, and not NaN, which would
+    make equal episodes compare unequal). The robot is then built from the
+    clip's `meta` (`reference_direction`, `joint_ranges`). A `Clip` whose frames are a
+    `FrameStream` (`clips.video.stream_video`) is read forward only: one episode, no
+    second reset, and `StreamEndedError` from `step` if the source ends early.
 
     ## Action Space
     `Box(-1, 1, (n_links,), float32)`, mapped linearly onto each actuator's range:
@@ -71,11 +97,12 @@ class ImitateVideoEnv(gym.Env, EzPickle):
     - `reward_ctrl = -ctrl_cost_weight * sum_i a_i^2`.
     `info` also holds `tracking_error_deg` (RMS over joints of the wrapped error, degrees),
     `frame_index`, `target_angles` (rad), `occlusion` (fraction of the moving links
-    hidden) and `clip_seed`.
+    hidden), `clip_seed` and `has_truth` (False: no ground truth, tracking reward 0).
 
     ## Starting State
     The robot starts at the demonstrator's first-frame angles plus uniform noise of
-    `reset_noise_scale` rad per joint (clipped to the joint range), at rest. The clip is
+    `reset_noise_scale` rad per joint (clipped to the joint range), at rest; without
+    ground truth, at the middle of the joint ranges plus that noise. The clip is
     drawn from `clip_seeds` with the env's random generator, or set by
     `reset(options={"clip_seed": s})`.
 
@@ -88,6 +115,8 @@ class ImitateVideoEnv(gym.Env, EzPickle):
     | Argument | Default | Meaning |
     |---|---|---|
     | `scenario` | `"default"` | scenario name (`imimic_gym.scenario_names()`) or a `Clip` |
+    | `clip` | `None` | a video file path or a `Clip`; overrides `scenario` |
+    | `annotations` | `None` | COCO-keypoints JSON of the video `clip` (ground truth) |
     | `n_links` | `None` | 1-3 moving links; `None` takes the scenario's |
     | `control` | `"position"` | `"position"`, `"velocity"` or `"torque"` actuation |
     | `modality` | `"rgb"` | `"rgb"` or `"depth"` frames in the observation |
@@ -120,10 +149,13 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         ctrl_cost_weight: float = 1e-3,
         reset_noise_scale: float = 0.02,
         render_mode: str | None = None,
+        clip: str | Clip | None = None,
+        annotations: str | None = None,
     ) -> None:
         EzPickle.__init__(
             self, scenario, n_links, control, modality, width, height, clip_seeds,
             n_frames, tracking_weight, ctrl_cost_weight, reset_noise_scale, render_mode,
+            clip, annotations,
         )
         if control not in CONTROL_MODES:
             raise ValueError(f"control must be one of {CONTROL_MODES}, got {control!r}")
@@ -143,19 +175,24 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         self._clips: dict[int, Clip] = {}
         self._fixed_clip: Clip | None = None
         self._spec: ClipSpec | None = None
+        if annotations is not None and not isinstance(clip, (str, Path)):
+            raise ValueError(f"annotations={annotations!r} belong to a video: give its path "
+                             f"as clip=, got clip={clip!r}")
+        if isinstance(clip, (str, Path)):
+            from imimic_gym.clips.video import load_video
+
+            clip = load_video(clip, annotations, n_links=n_links or 1, max_frames=n_frames)
+        if clip is not None:
+            scenario = clip
         if isinstance(scenario, Clip):
-            if scenario.truth is None:
-                raise ValueError(
-                    "ImitateVideo-v0 needs a clip with ground truth (its reward compares the "
-                    f"robot with the true angles); clip {scenario.meta} has none"
-                )
             if n_links is not None and n_links != scenario.n_links:
                 raise ValueError(f"n_links={n_links} but the clip has {scenario.n_links} links")
+            if not isinstance(scenario.frames, np.ndarray) and (width or height):
+                raise ValueError("width/height resize a clip in memory; this clip streams "
+                                 f"from {scenario.meta.get('path')}: leave them None")
             self._fixed_clip = scenario.resized(height, width)
             self.clip_seeds: tuple[int, ...] = (int(scenario.meta.get("seed", 0)),)
-            arm = ClipSpec(
-                demonstrator=scenario.meta.get("demonstrator", "human"), n_links=scenario.n_links
-            ).robot_arm(control)
+            arm = clip_arm(scenario, control)
         else:
             overrides = {k: v for k, v in (("n_links", n_links), ("width", width),
                          ("height", height), ("n_frames", n_frames)) if v is not None}
@@ -225,8 +262,11 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         return np.clip(a, -1.0, 1.0).astype(np.float32)
 
     def target_angles(self, frame_index: int) -> np.ndarray:
-        """The demonstrator's true joint angles (rad) at ``frame_index`` (clamped to the clip)."""
-        assert self.clip.truth is not None
+        """The demonstrator's true joint angles (rad) at ``frame_index`` (clamped to the
+        clip). Raises ValueError for a clip without truth."""
+        if self.clip.truth is None:
+            raise ValueError(f"clip {self.clip.meta.get('path', self.clip.meta)} has no ground "
+                             "truth: no target angles (load it with annotations)")
         i = min(max(frame_index, 0), len(self.clip) - 1)
         return self.clip.truth.angles[i].copy()
 
@@ -237,20 +277,28 @@ class ImitateVideoEnv(gym.Env, EzPickle):
             "qvel": self.data.qvel.clip(-MAX_OBSERVED_SPEED, MAX_OBSERVED_SPEED),
         }
 
-    def _tracking(self) -> tuple[np.ndarray, np.ndarray]:
-        """The demonstrator's angles in the current frame, and the robot's wrapped error."""
-        assert self.frame_index is not None and self.clip.truth is not None
+    def _tracking(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The demonstrator's angles in the current frame and the robot's wrapped error;
+        None without truth."""
+        assert self.frame_index is not None
+        if self.clip.truth is None:
+            return None
         target = self.clip.truth.angles[self.frame_index]
         return target, wrap_angle(self.data.qpos - target)
 
-    def _info(self, target: np.ndarray, error: np.ndarray) -> dict[str, Any]:
-        return {
-            "tracking_error_deg": math.degrees(math.sqrt(float(error @ error) / error.size)),
+    def _info(self, tracking: tuple[np.ndarray, np.ndarray] | None) -> dict[str, Any]:
+        truth = self.clip.truth
+        info: dict[str, Any] = {
             "frame_index": self.frame_index,
-            "target_angles": target.copy(),
-            "occlusion": float(self.clip.truth.occlusion[self.frame_index]),
+            "occlusion": float(truth.occlusion[self.frame_index]) if truth is not None else 0.0,
             "clip_seed": int(self.clip.meta.get("seed", 0)),
+            "has_truth": truth is not None,
         }
+        if tracking is not None:
+            target, error = tracking
+            info["tracking_error_deg"] = math.degrees(math.sqrt(float(error @ error) / error.size))
+            info["target_angles"] = target.copy()
+        return info
 
     # Gymnasium API -------------------------------------------------------------------
     def reset(
@@ -267,7 +315,8 @@ class ImitateVideoEnv(gym.Env, EzPickle):
             self.clip, self._frames = clip, self._observed_frames(clip)
         mujoco.mj_resetData(self.model, self.data)
         truth = self.clip.truth
-        start = truth.angles[0] if truth is not None else np.zeros(self.arm.n_links)
+        start = truth.angles[0] if truth is not None else np.mean(
+            [self._joint_low, self._joint_high], axis=0)
         scale = self.reset_noise_scale
         noise = self.np_random.uniform(-scale, scale, size=start.shape)
         self.data.qpos[:] = np.clip(start + noise, self._joint_low, self._joint_high)
@@ -275,7 +324,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
             self.data.ctrl[:] = self.data.qpos  # the servo holds the start pose
         mujoco.mj_forward(self.model, self.data)
         self.frame_index, self._last_frame = 0, len(self.clip) - 1
-        return self._obs(), self._info(*self._tracking())
+        return self._obs(), self._info(self._tracking())
 
     def step(
         self, action: np.ndarray
@@ -296,9 +345,11 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         mujoco.mj_step(self.model, self.data, nstep=self.n_substeps)
         self.frame_index += 1
 
-        target, error = self._tracking()
-        info = self._info(target, error)
-        reward_tracking = -self.tracking_weight * float(error @ error)
+        tracking = self._tracking()
+        info = self._info(tracking)
+        reward_tracking = 0.0
+        if tracking is not None:
+            reward_tracking = -self.tracking_weight * float(tracking[1] @ tracking[1])
         reward_ctrl = -self.ctrl_cost_weight * float(a @ a)
         info["reward_tracking"], info["reward_ctrl"] = reward_tracking, reward_ctrl
         truncated = self.frame_index == self._last_frame

@@ -1,0 +1,261 @@
+"""`imimic mimic`: an estimator and a controller on recorded or live footage, driving the
+simulated arm (and, through `ServoBridge`, a real servo arm), written out as it goes.
+
+The pieces are the library's own: the footage is a streamed `Clip`
+(`clips.video.stream_video`), the env is ``ImitateVideo-v0`` on that clip (no truth:
+tracking reward 0), the estimator is added by its observation wrapper, the controller is
+`PDController` on `EstimateTarget`, and the outputs are `write_video` and
+`plot_tracking`. Nothing holds the whole stream: frames are rendered and written one by
+one, the CSV is appended and flushed per frame, and only a few numbers per frame stay in
+memory for the plot.
+
+Outputs in ``out``: ``mimic.mp4`` (the footage with the estimate drawn on it by the
+estimator wrapper's ``render``, beside the simulated robot), ``angles.png`` (estimated
+vs robot angle), ``mimic.csv`` (one row a frame: ``time_s, frame, angle_rad,
+omega_rad_s, torque_nm, eta, predicted, robot_rad, latency_ms`` with one column per joint
+for the angle-like fields, suffixed 1..n) and ``mimic.json`` (frames/s after the first
+frame, latency, how the run ended). Ctrl-C, or a camera that disappears, ends the run
+cleanly with all of them written up to that frame.
+
+Latency is the wall time from asking the source for a frame to the joint command being
+ready (reading, decoding, estimating, controlling; not the video rendering), so on a
+live camera it is how far the robot's command trails the picture, less the camera's own
+delay.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from imimic_gym.clips.video import StreamEndedError, require_frames, write_video
+from imimic_gym.rollout import Trajectory
+
+__all__ = ["ESTIMATOR_WRAPPERS", "MimicLog", "mimic_frames", "run_mimic"]
+
+
+def _don(env: gym.Env, params: dict[str, Any]) -> gym.Env:
+    from imimic_gym.wrappers import DONObservation
+
+    return DONObservation(env, keep_frame=False, **params)
+
+
+def _don_frames_needed(params: dict[str, Any]) -> int:
+    return int(params.get("window", 10)) + 1
+
+
+# Estimator name -> (wrap the env so obs["estimate"] holds its output, frames it needs
+# before its first real estimate). Another estimator is one more entry.
+ESTIMATOR_WRAPPERS: dict[str, tuple[Callable[[gym.Env, dict[str, Any]], gym.Env],
+                                    Callable[[dict[str, Any]], int]]] = {
+    "don": (_don, _don_frames_needed),
+}
+
+
+@dataclass
+class MimicLog:
+    """What `mimic_frames` measured, per frame. n joints; rad, rad/s, N m, ms."""
+
+    fps: float
+    time: list[float] = field(default_factory=list)
+    angles: list[np.ndarray] = field(default_factory=list)
+    robot: list[np.ndarray] = field(default_factory=list)
+    trust: list[float] = field(default_factory=list)
+    predicted: list[bool] = field(default_factory=list)
+    latency_ms: list[float] = field(default_factory=list)
+    first_done: float | None = None  # perf_counter when the first frame was done
+    last_done: float | None = None
+
+    def trajectory(self) -> Trajectory:
+        """The run as a `Trajectory` whose target is the estimate (for `plot_tracking`)."""
+        return Trajectory(time=np.asarray(self.time), target=np.asarray(self.angles),
+                          robot=np.asarray(self.robot), reward=np.zeros(len(self.time)),
+                          occlusion=np.zeros(len(self.time)))
+
+
+def csv_header(n: int) -> list[str]:
+    """mimic.csv's columns for ``n`` joints (angle-like ones suffixed 1..n when n > 1)."""
+    def joints(name: str) -> list[str]:
+        return [f"{name}{j + 1}" for j in range(n)] if n > 1 else [name]
+
+    return ["time_s", "frame", *joints("angle_rad"), *joints("omega_rad_s"),
+            *joints("torque_nm"), "eta", "predicted", *joints("robot_rad"), "latency_ms"]
+
+
+def mimic_frames(env: gym.Env, controller: Any, log: MimicLog, rows: Any = None,
+                 servo: Any = None,
+                 on_frame: Callable[[MimicLog], None] | None = None,
+                 realtime: bool = False) -> Iterator[np.ndarray]:
+    """Run ``controller`` on the estimator-wrapped ``env`` to the end of its clip (or of
+    the stream), yielding each side-by-side frame (H, 2W, 3) uint8 RGB as it is made.
+
+    Per frame: the estimate and robot angle go into ``log``, a row into the csv writer
+    ``rows`` (flushed), the joint command to ``servo`` (a `ServoBridge`), and ``on_frame``
+    is called (progress display). A stream that ends early ends the run, not an error.
+    ``realtime`` waits until frame i's time (i / fps after the first) before reading it.
+    """
+    inner = env.unwrapped
+    n = inner.arm.n_links
+
+    def record(obs: dict[str, Any], info: dict[str, Any], started: float) -> np.ndarray:
+        action = controller(obs)
+        if servo is not None:
+            command = (inner.action_to_command(action) if inner.control == "position"
+                       else obs["qpos"])
+            servo.send(command)
+        latency = 1000.0 * (time.perf_counter() - started)
+        estimate = env.last_estimate
+        t = info["frame_index"] / log.fps
+        log.time.append(t)
+        log.angles.append(estimate.angles.copy())
+        log.robot.append(obs["qpos"].copy())
+        log.trust.append(estimate.trust)
+        log.predicted.append(estimate.predicted)
+        log.latency_ms.append(latency)
+        if rows is not None:
+            rows.writerow([f"{t:.4f}", info["frame_index"],
+                           *(f"{v:.6f}" for v in estimate.angles),
+                           *(f"{v:.6f}" for v in estimate.omega),
+                           *(f"{v:.6f}" for v in estimate.torque),
+                           f"{estimate.trust:.4f}", int(estimate.predicted),
+                           *(f"{v:.6f}" for v in obs["qpos"][:n]), f"{latency:.2f}"])
+        log.last_done = time.perf_counter()
+        if log.first_done is None:
+            log.first_done = log.last_done
+        if on_frame is not None:
+            on_frame(log)
+        return action
+
+    started = time.perf_counter()
+    obs, info = env.reset(seed=0)
+    if hasattr(controller, "reset"):
+        controller.reset()
+    action = record(obs, info, started)
+    yield env.render()
+    done, first = False, time.perf_counter()
+    while not done:
+        if realtime:
+            time.sleep(max(0.0, first + (info["frame_index"] + 1) / log.fps
+                           - time.perf_counter()))
+        started = time.perf_counter()
+        try:
+            obs, _, terminated, truncated, info = env.step(action)
+        except StreamEndedError:
+            return
+        action = record(obs, info, started)
+        yield env.render()
+        done = terminated or truncated
+
+
+def steady_rate(log: MimicLog) -> float:
+    """Frames/s from the first frame done to the last: the start-up (the first decode,
+    the renderer's GL context) is left out, as it is paid once however long a run is."""
+    if log.first_done is None or log.last_done is None or len(log.time) < 2:
+        return 0.0
+    return (len(log.time) - 1) / max(log.last_done - log.first_done, 1e-9)
+
+
+def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str = "position",
+              estimator_params: dict[str, Any] | None = None, servo: Any = None,
+              progress: bool = True, realtime: bool = False) -> dict[str, Any]:
+    """Mimic the arm in ``clip`` (a `Clip`, typically from `stream_video`) and write the
+    outputs into ``out`` (see the module docstring). ``realtime`` paces a file to its own
+    frame rate (a servo then moves at the person's speed; a camera paces itself). Returns
+    the summary also written to ``mimic.json``: frames, wall time, frames/s, latency, mean
+    eta, how the run ended. The clip's stream and ``servo`` are closed at the end."""
+    from tqdm.auto import tqdm
+
+    from imimic_gym.controllers import EstimateTarget, PDController
+    from imimic_gym.plots import plot_tracking
+
+    if estimator not in ESTIMATOR_WRAPPERS:
+        raise ValueError(f"unknown estimator {estimator!r}; expected one of "
+                         f"{sorted(ESTIMATOR_WRAPPERS)}")
+    params = dict(estimator_params or {})
+    wrap, frames_needed = ESTIMATOR_WRAPPERS[estimator]
+    needed = frames_needed(params)
+    source = str(clip.meta.get("path", "the clip"))
+    live = clip.meta.get("source") == "camera"
+    known_length = getattr(clip.frames, "length_known", True)
+    why = f"{estimator.upper()} (window {needed - 1})"
+    try:
+        if not live and known_length:
+            require_frames(len(clip), needed, source, why)
+        env = wrap(gym.make("ImitateVideo-v0", clip=clip, control=control,
+                            render_mode="rgb_array"), params)
+    except BaseException:  # release the camera or file before the error goes up
+        if hasattr(clip.frames, "close"):
+            clip.frames.close()
+        raise
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    controller = PDController(env, EstimateTarget(env))
+    log = MimicLog(fps=float(clip.fps))
+    bar = tqdm(total=len(clip) if known_length else None, unit="frame", disable=not progress,
+               desc=f"mimic {Path(source).name}")
+    last_update = [time.perf_counter()]
+
+    def show(log: MimicLog) -> None:
+        bar.update(1)
+        now = time.perf_counter()
+        if now - last_update[0] > 0.5 and len(log.latency_ms) > 1:
+            recent = log.latency_ms[-30:]
+            bar.set_postfix(latency_ms=f"{np.mean(recent):.1f}", eta=f"{log.trust[-1]:.2f}")
+            last_update[0] = now
+
+    ended = "end of footage"
+    started = time.perf_counter()
+    with (out / "mimic.csv").open("w", newline="", buffering=1) as table:
+        rows = csv.writer(table)
+        rows.writerow(csv_header(env.unwrapped.arm.n_links))
+        try:
+            write_video(out / "mimic.mp4",
+                        mimic_frames(env, controller, log, rows, servo, show, realtime),
+                        clip.fps)
+        except KeyboardInterrupt:
+            ended = "stopped by Ctrl-C"
+        finally:
+            wall = time.perf_counter() - started
+            bar.close()
+            env.close()
+            if hasattr(clip.frames, "close"):
+                clip.frames.close()
+            if servo is not None:
+                servo.close()
+    frames = len(log.time)
+    if frames and live and frames < len(clip):
+        ended = "camera stopped" if ended == "end of footage" else ended
+    if frames:
+        plot_tracking(log.trajectory(), out / "angles.png", target_label=estimator.upper(),
+                      title=f"{Path(source).name}: {estimator.upper()} estimate (solid) vs "
+                            f"robot (dashed)")
+    latency = np.asarray(log.latency_ms) if frames else np.zeros(1)
+    summary = {
+        "source": source,
+        "estimator": estimator,
+        "control": control,
+        "frames": frames,
+        "video_fps": float(clip.fps),
+        "wall_s": wall,
+        "frames_per_s": steady_rate(log),
+        "latency_ms_median": float(np.median(latency)),
+        "latency_ms_p95": float(np.percentile(latency, 95)),
+        "mean_trust": float(np.mean(log.trust)) if frames else 0.0,
+        "predicted_fraction": float(np.mean(log.predicted)) if frames else 0.0,
+        "skipped_frames": int(getattr(getattr(clip.frames, "reader", None),
+                                      "skipped_frames", 0)),
+        "ended": ended,
+    }
+    if servo is not None:
+        summary["servo_commands_sent"], summary["servo_errors"] = servo.sent, servo.errors
+    (out / "mimic.json").write_text(json.dumps(summary, indent=2) + "\n")
+    require_frames(frames, needed if ended == "end of footage" else 0, source, why)
+    return summary

@@ -1,0 +1,253 @@
+"""Video files as clip sources: real OpenCV encoding and decoding, no mocks."""
+
+import json
+import math
+
+import cv2
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from imimic_gym.clips.annotations import AnnotationError, truth_from_coco
+from imimic_gym.clips.cache import load_clip
+from imimic_gym.clips.scenarios import get_scenario
+from imimic_gym.clips.video import (
+    StreamEndedError,
+    VideoFormatError,
+    VideoOpenError,
+    VideoReader,
+    load_video,
+    require_frames,
+    stream_video,
+    write_video,
+)
+from imimic_gym.estimators.don import DON
+from imimic_gym.metrics import angle_rmse_deg
+
+WARM_UP = 15  # frames: DON sees nothing before the arm has moved
+
+
+def don_rmse(frames, clip) -> float:
+    don = DON(fps=clip.fps, reference_direction=clip.meta["reference_direction"],
+              joint_range=tuple(clip.meta["joint_ranges"][0]))
+    angles = np.array([e.angles for e in don.run(frames)])
+    return angle_rmse_deg(angles[WARM_UP:], clip.truth.angles[WARM_UP:])
+
+
+def test_mp4_round_trip_keeps_dons_accuracy(servo_clip, servo_mp4) -> None:
+    video = load_video(servo_mp4)
+    assert video.frames.shape == servo_clip.frames.shape and video.fps == 30.0
+    assert video.meta["skipped_frames"] == 0 and video.meta["source"] == "video"
+    # mp4v is lossy: close to the rendered pixels, not equal.
+    assert 0 < np.abs(video.frames.astype(int) - servo_clip.frames).mean() < 6
+    in_memory, decoded = don_rmse(servo_clip.frames, servo_clip), don_rmse(video.frames,
+                                                                            servo_clip)
+    assert in_memory < 2.0
+    assert abs(decoded - in_memory) < 1.0
+
+
+def test_fps_is_the_containers_float(tmp_path) -> None:
+    frames = np.zeros((4, 24, 32, 3), dtype=np.uint8)
+    path = write_video(tmp_path / "ntsc.mp4", frames, 30000 / 1001)
+    with VideoReader(path) as video:
+        assert video.fps == pytest.approx(29.97, abs=1e-3) and isinstance(video.fps, float)
+    assert load_video(path).fps == pytest.approx(29.97, abs=1e-3)
+
+
+def test_a_stream_holds_a_bounded_buffer_and_reads_forward(servo_clip, servo_mp4) -> None:
+    clip = stream_video(servo_mp4, buffer=4)
+    stream = clip.frames
+    assert len(clip) == len(servo_clip) and clip.fps == 30.0
+    decoded = load_video(servo_mp4).frames
+    np.testing.assert_array_equal(stream[10], decoded[10])
+    np.testing.assert_array_equal(stream[12], decoded[12])
+    assert len(stream._frames) == 4
+    with pytest.raises(IndexError, match="has left the stream's buffer"):
+        stream[5]
+    assert sum(1 for _ in stream) == len(servo_clip) - 9  # from frame 9, the buffer's oldest
+    with pytest.raises(StreamEndedError, match="past the end"):
+        stream[len(servo_clip)]
+    assert stream.reader.capture is None  # released at the end
+
+
+def test_reading_stopped_early_releases_the_capture(servo_mp4) -> None:
+    reader = VideoReader(servo_mp4)
+    frames = iter(reader)
+    next(frames)
+    assert reader.capture is not None
+    frames.close()
+    assert reader.capture is None
+
+
+def test_missing_empty_and_undecodable_files_are_named(tmp_path) -> None:
+    with pytest.raises(VideoOpenError, match=r"cannot open video .*nope\.mp4: no such file"):
+        load_video(tmp_path / "nope.mp4")
+    (tmp_path / "empty.mp4").write_bytes(b"")
+    with pytest.raises(VideoOpenError, match=r"empty\.mp4: the file is empty"):
+        load_video(tmp_path / "empty.mp4")
+    (tmp_path / "notes.mp4").write_text("not a video " * 50)
+    with pytest.raises(VideoOpenError, match=r"notes\.mp4: OpenCV cannot decode it"):
+        load_video(tmp_path / "notes.mp4")
+    with pytest.raises(OSError, match="it is a directory"):
+        load_video(tmp_path)
+
+
+def test_a_video_with_zero_frames_is_named(tmp_path) -> None:
+    path = tmp_path / "zero.avi"
+    cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, (64, 48)).release()
+    with pytest.raises(VideoFormatError, match=r"zero\.avi has no frames that can be decoded"):
+        load_video(path)
+
+
+def test_a_resolution_change_mid_stream_is_named(tmp_path) -> None:
+    # An image sequence: OpenCV's image backend returns every image at its own size.
+    for i in range(6):
+        size = (30, 40) if i < 4 else (50, 60)
+        cv2.imwrite(str(tmp_path / f"frame_{i:03d}.png"), np.full((*size, 3), 40 * i, np.uint8))
+    reader = VideoReader(tmp_path / "frame_%03d.png", fps=25.0)
+    with pytest.raises(VideoFormatError,
+                       match=r"frame_%03d\.png: frame 4 is 60x50 but the video started at 40x30"):
+        list(reader)
+    assert reader.capture is None  # released although the iteration raised
+
+
+def test_an_image_sequence_needs_a_frame_rate(tmp_path) -> None:
+    cv2.imwrite(str(tmp_path / "f_000.png"), np.zeros((8, 8, 3), np.uint8))
+    with pytest.raises(VideoFormatError, match=r"f_%03d\.png does not report its frame rate"):
+        load_video(tmp_path / "f_%03d.png")
+
+
+def jpeg(value: int) -> bytes:
+    image = np.full((48, 64, 3), value, np.uint8)
+    image[:24] = 255 - value
+    return cv2.imencode(".jpg", image)[1].tobytes()
+
+
+def test_a_corrupt_frame_in_the_middle_is_skipped_and_counted(tmp_path) -> None:
+    good = [jpeg(20 * i) for i in range(8)]
+    broken = b"\xff\xd8\xff\xe0" + bytes(100) + b"\xff\xd9"  # a JPEG with no image in it
+    path = tmp_path / "motion.mjpeg"
+    path.write_bytes(b"".join([*good[:3], broken, *good[3:]]))
+    clip = load_video(path, fps=25.0)
+    assert len(clip) == 8 and clip.meta["skipped_frames"] == 1
+    # The frames around the broken one are the real ones, in order.
+    assert clip.frames[3, 40, 0, 0] == pytest.approx(60, abs=3)
+
+
+def test_too_short_for_a_window_is_named() -> None:
+    with pytest.raises(VideoFormatError, match=r"clip\.mp4 has 7 frames, fewer than the 11 "
+                                               r"that DON \(window 10\) needs"):
+        require_frames(7, 11, "clip.mp4", "DON (window 10)")
+    require_frames(11, 11, "clip.mp4", "DON (window 10)")
+
+
+def coco_file(path, keypoints: np.ndarray, prefix: str = "right_") -> None:
+    """COCO keypoints for (T, 3, 2) shoulder, elbow, wrist pixels, 17-keypoint layout."""
+    names = ["nose", "left_eye", "right_eye", "left_ear", "right_ear", "left_shoulder",
+             "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist",
+             "left_hip", "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle"]
+    columns = [names.index(prefix + n) for n in ("shoulder", "elbow", "wrist")]
+    annotations = []
+    for t, points in enumerate(keypoints):
+        flat = np.zeros((17, 3))
+        flat[columns, :2], flat[columns, 2] = points, 2
+        annotations.append({"id": t, "image_id": 100 + t, "category_id": 1,
+                            "keypoints": flat.ravel().tolist()})
+    path.write_text(json.dumps({
+        "images": [{"id": 100 + t, "file_name": f"{t}.jpg"} for t in range(len(keypoints))],
+        "annotations": annotations,
+        "categories": [{"id": 1, "name": "person", "keypoints": names}],
+    }))
+
+
+def test_coco_keypoints_give_the_true_elbow_angle(tmp_path) -> None:
+    clip = load_clip(get_scenario("default", n_frames=30), progress=False)
+    names = list(clip.truth.keypoint_names)
+    arm = clip.truth.keypoints[:, [names.index(n) for n in ("shoulder", "elbow", "wrist")]]
+    coco_file(tmp_path / "arm.json", arm)
+    truth = truth_from_coco(tmp_path / "arm.json", len(clip), clip.fps, n_links=1,
+                            reference_direction=0.0)
+    # The forearm's angle from the upper arm, from pixels alone: within a degree.
+    assert angle_rmse_deg(truth.angles, clip.truth.angles) < 1.0
+    assert truth.visible.all() and truth.angles.shape == (30, 1)
+
+
+def test_unlabelled_frames_are_interpolated_and_marked(tmp_path) -> None:
+    t = np.arange(5)
+    elbow = np.radians(10.0 * t)  # the forearm turns 10 degrees a frame from straight down
+    shoulder, joint = np.array([100.0, 50.0]), np.array([100.0, 100.0])
+    wrist = joint + 40 * np.stack([np.sin(elbow), np.cos(elbow)], axis=1)
+    keypoints = np.stack([np.tile(shoulder, (5, 1)), np.tile(joint, (5, 1)), wrist], axis=1)
+    coco_file(tmp_path / "a.json", keypoints, prefix="left_")
+    data = json.loads((tmp_path / "a.json").read_text())
+    data["annotations"].pop(2)
+    (tmp_path / "a.json").write_text(json.dumps(data))
+    truth = truth_from_coco(tmp_path / "a.json", 5, 30.0, n_links=1,
+                            reference_direction=-math.pi / 2)
+    np.testing.assert_allclose(np.degrees(truth.angles[:, 0]), [0, 10, 20, 30, 40], atol=1e-4)
+    assert not truth.visible[2].any() and truth.visible[3].all()
+    assert np.degrees(truth.angular_velocity[2, 0]) == pytest.approx(300.0)
+    # Two links: the upper arm hangs straight down (q1 = 0 from the torso's axis), then
+    # the elbow as before.
+    two = truth_from_coco(tmp_path / "a.json", 5, 30.0, n_links=2,
+                          reference_direction=-math.pi / 2)
+    np.testing.assert_allclose(np.degrees(two.angles), [[0, 10 * k] for k in range(5)],
+                               atol=1e-4)
+
+
+def test_bad_annotation_files_are_named(tmp_path) -> None:
+    with pytest.raises(AnnotationError, match=r"missing\.json: no such annotation file"):
+        truth_from_coco(tmp_path / "missing.json", 5, 30.0, 1, 0.0)
+    (tmp_path / "x.json").write_text('{"images": []}')
+    with pytest.raises(AnnotationError, match=r"x\.json is not COCO keypoints"):
+        truth_from_coco(tmp_path / "x.json", 5, 30.0, 1, 0.0)
+    coco_file(tmp_path / "long.json", np.zeros((9, 3, 2)))
+    with pytest.raises(AnnotationError, match=r"long\.json annotates frame 8, but the video "
+                                              r"has 5 frames"):
+        truth_from_coco(tmp_path / "long.json", 5, 30.0, 1, 0.0)
+
+
+def test_env_runs_a_video_with_and_without_annotations(servo_clip, servo_mp4, tmp_path) -> None:
+    env = gym.make("ImitateVideo-v0", clip=str(servo_mp4))
+    obs, info = env.reset(seed=0)
+    assert obs["frame"].shape == (240, 320, 3) and info["has_truth"] is False
+    _, reward, _, _, info = env.step(np.zeros(1, dtype=np.float32))
+    assert info["reward_tracking"] == 0.0 and reward == info["reward_ctrl"]
+    assert "tracking_error_deg" not in info and "target_angles" not in info
+    with pytest.raises(ValueError, match=r"servo\.mp4 has no ground truth"):
+        env.unwrapped.target_angles(1)
+    # The default geometry: reference down the image, the paper's 120-degree servo range.
+    inner = env.unwrapped
+    assert inner.arm.reference_direction == pytest.approx(-math.pi / 2)
+    np.testing.assert_allclose(np.degrees(inner.arm.joint_ranges[0]), [-60, 60])
+
+    # The servo's pivot and tip, with a "shoulder" below the pivot: the upper arm then
+    # points up the image, the servo's zero mark, and the elbow angle is the servo's.
+    pivot, tip = servo_clip.truth.keypoints[:, 0], servo_clip.truth.keypoints[:, -1]
+    below = pivot + np.array([0.0, 30.0], dtype=np.float32)
+    coco_file(tmp_path / "servo.json", np.stack([below, pivot, tip], axis=1))
+    env = gym.make("ImitateVideo-v0", clip=str(servo_mp4),
+                   annotations=str(tmp_path / "servo.json"))
+    _, info = env.reset(seed=0)
+    assert info["has_truth"] is True and np.isfinite(info["tracking_error_deg"])
+    truth = env.unwrapped.clip.truth.angles
+    assert angle_rmse_deg(truth, servo_clip.truth.angles) < 1.0
+    _, reward, _, _, info = env.step(np.zeros(1, dtype=np.float32))
+    assert info["reward_tracking"] < 0
+
+
+def test_annotations_need_a_video_path(servo_clip) -> None:
+    with pytest.raises(ValueError, match=r"annotations='a\.json' belong to a video"):
+        gym.make("ImitateVideo-v0", clip=servo_clip, annotations="a.json")
+
+
+def test_a_video_env_passes_gymnasiums_checker(servo_mp4) -> None:
+    import warnings
+
+    from gymnasium.utils.env_checker import check_env
+
+    env = gym.make("ImitateVideo-v0", clip=str(servo_mp4), n_frames=20, render_mode="rgb_array")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(env.unwrapped)
+    assert len(env.unwrapped.clip) == 20

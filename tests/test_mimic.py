@@ -1,0 +1,181 @@
+"""`imimic mimic` on a recorded synthetic clip: real OpenCV files, real MuJoCo, real DON."""
+
+import csv
+import json
+import math
+import os
+import re
+
+import cv2
+import numpy as np
+import pytest
+
+from imimic_gym.cli import main
+from imimic_gym.clips.video import VideoFormatError, stream_video, write_video
+from imimic_gym.metrics import angle_rmse_deg
+from imimic_gym.mimic import run_mimic
+from imimic_gym.servo import ServoBridge
+
+
+def read_csv(path) -> list[dict[str, str]]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def test_mimic_video_writes_the_video_plot_and_csv(servo_clip, servo_mp4, tmp_path) -> None:
+    out = tmp_path / "out"
+    # The servo is filmed from above with its zero mark pointing up the image.
+    assert main(["mimic", "--video", str(servo_mp4), "--reference-direction", "90",
+                 "--out", str(out)]) == 0
+    video = cv2.VideoCapture(str(out / "mimic.mp4"))
+    try:
+        assert int(video.get(cv2.CAP_PROP_FRAME_COUNT)) == 90
+        assert int(video.get(cv2.CAP_PROP_FRAME_WIDTH)) == 640
+    finally:
+        video.release()
+    assert cv2.imread(str(out / "angles.png")) is not None
+    rows = read_csv(out / "mimic.csv")
+    assert list(rows[0]) == ["time_s", "frame", "angle_rad", "omega_rad_s", "torque_nm", "eta",
+                             "predicted", "robot_rad", "latency_ms"]
+    assert len(rows) == 90 and float(rows[30]["time_s"]) == pytest.approx(1.0)
+    estimate = np.array([float(r["angle_rad"]) for r in rows])
+    robot = np.array([float(r["robot_rad"]) for r in rows])
+    truth = servo_clip.truth.angles[:, 0]
+    # DON on the decoded file, then the servo robot following it: a few degrees at most.
+    assert angle_rmse_deg(estimate[15:], truth[15:]) < 2.0
+    assert angle_rmse_deg(robot[15:], truth[15:]) < 4.0
+    assert all(0.0 <= float(r["eta"]) <= 1.0 for r in rows)
+    summary = json.loads((out / "mimic.json").read_text())
+    assert summary["frames"] == 90 and summary["ended"] == "end of footage"
+    assert summary["frames_per_s"] > 0 and summary["skipped_frames"] == 0
+
+
+def test_a_video_shorter_than_dons_window_is_named(servo_clip, tmp_path, capsys) -> None:
+    path = write_video(tmp_path / "short.mp4", servo_clip.frames[:7], servo_clip.fps)
+    message = r"short\.mp4 has 7 frames, fewer than the 11 that DON \(window 10\) needs"
+    clip = stream_video(path)
+    with pytest.raises(VideoFormatError, match=message):
+        run_mimic(clip, tmp_path / "out", progress=False)
+    assert clip.frames.reader.capture is None
+    # The command says it in one line, no traceback, and exits with 2.
+    assert main(["mimic", "--video", str(path), "--out", str(tmp_path / "out")]) == 2
+    assert re.search(message, capsys.readouterr().err)
+
+
+def test_a_missing_video_is_one_line_from_the_command(tmp_path, capsys) -> None:
+    assert main(["mimic", "--video", str(tmp_path / "gone.mp4")]) == 2
+    err = capsys.readouterr().err
+    assert "cannot open video" in err and "gone.mp4: no such file" in err
+
+
+def test_more_links_than_don_follows_is_refused() -> None:
+    with pytest.raises(SystemExit, match="DON follows one moving link so far; --links 2"):
+        main(["mimic", "--video", "x.mp4", "--links", "2"])
+
+
+def test_a_stream_that_ends_early_keeps_everything_written(tmp_path) -> None:
+    # An MJPEG stream reports no length, like a camera: the run ends when frames stop.
+    frames = [cv2.imencode(".jpg", np.full((48, 64, 3), 10 * i, np.uint8))[1].tobytes()
+              for i in range(14)]
+    (tmp_path / "feed.mjpeg").write_bytes(b"".join(frames))
+    clip = stream_video(tmp_path / "feed.mjpeg", fps=25.0)
+    assert not clip.frames.length_known
+    summary = run_mimic(clip, tmp_path / "out", progress=False)
+    assert summary["frames"] == 14 and summary["ended"] == "end of footage"
+    assert len(read_csv(tmp_path / "out" / "mimic.csv")) == 14
+    assert clip.frames.reader.capture is None
+
+
+def test_a_live_source_runs_until_it_stops(servo_mp4, tmp_path) -> None:
+    # A URL is opened as a live source (like a network camera): no length, no rewinding;
+    # when frames stop coming the run ends as a camera that disappeared.
+    clip = stream_video(f"file://{servo_mp4}", reference_direction=math.pi / 2)
+    assert clip.meta["source"] == "camera" and not clip.frames.length_known
+    summary = run_mimic(clip, tmp_path, progress=False)
+    assert summary["ended"] == "camera stopped" and summary["frames"] == 90
+    assert len(read_csv(tmp_path / "mimic.csv")) == 90
+    assert clip.frames.reader.capture is None
+
+
+def test_a_wrong_link_count_is_refused_and_the_file_released(servo_mp4, tmp_path) -> None:
+    clip = stream_video(servo_mp4, n_links=2)
+    with pytest.raises(ValueError, match="DON handles one moving link so far"):
+        run_mimic(clip, tmp_path, progress=False)
+    assert clip.frames.reader.capture is None
+
+
+class InterruptingServo:
+    """Stands in for the user pressing Ctrl-C: the 20th joint command raises
+    KeyboardInterrupt inside the loop, where a real SIGINT would land."""
+
+    def __init__(self) -> None:
+        self.sent = self.errors = 0
+
+    def send(self, command) -> None:
+        self.sent += 1
+        if self.sent == 20:
+            raise KeyboardInterrupt
+
+    def close(self) -> None:
+        pass
+
+
+def test_ctrl_c_stops_cleanly_and_keeps_the_outputs(servo_mp4, tmp_path) -> None:
+    clip = stream_video(servo_mp4, reference_direction=math.pi / 2)
+    summary = run_mimic(clip, tmp_path, servo=InterruptingServo(), progress=False)
+    assert summary["ended"] == "stopped by Ctrl-C" and summary["frames"] == 19
+    assert len(read_csv(tmp_path / "mimic.csv")) == 19
+    video = cv2.VideoCapture(str(tmp_path / "mimic.mp4"))
+    try:
+        assert int(video.get(cv2.CAP_PROP_FRAME_COUNT)) == 19  # a finished, readable file
+    finally:
+        video.release()
+    assert cv2.imread(str(tmp_path / "angles.png")) is not None
+    assert clip.frames.reader.capture is None
+
+
+def test_mimic_drives_a_servo_through_a_pseudo_terminal(servo_mp4, tmp_path) -> None:
+    controller, device = os.openpty()
+    try:
+        clip = stream_video(servo_mp4, reference_direction=math.pi / 2, max_frames=30)
+        # A rate limit above the video's 30 fps: every new command goes out.
+        servo = ServoBridge(os.ttyname(device), max_rate_hz=1000)
+        summary = run_mimic(clip, tmp_path, servo=servo, progress=False)
+        os.set_blocking(controller, False)
+        lines = os.read(controller, 65536).decode().splitlines()
+    finally:
+        os.close(controller)
+        os.close(device)
+    assert summary["servo_errors"] == 0 and len(lines) == summary["servo_commands_sent"] > 5
+    commanded = [float(r["robot_rad"]) for r in read_csv(tmp_path / "mimic.csv")]
+    degrees = [float(line.split()[1]) for line in lines]
+    assert all(line.startswith("J1 ") for line in lines)
+    assert all(0.0 <= d <= 120.0 for d in degrees)
+    # The servo follows the same target as the simulated robot (60 = joint angle 0).
+    assert abs(degrees[-1] - 60 - math.degrees(commanded[-1])) < 15
+
+
+def test_help_lists_mimic_and_its_options(capsys) -> None:
+    with pytest.raises(SystemExit):
+        main(["mimic", "--help"])
+    text = capsys.readouterr().out
+    for option in ("--video", "--camera", "--estimator", "--links", "--serial", "--baud",
+                   "--reference-direction", "--joint-range"):
+        assert option in text
+
+
+def test_the_command_drives_a_servo_with_its_range(servo_mp4, tmp_path) -> None:
+    controller, device = os.openpty()
+    try:
+        # --serial paces the file at its own 30 fps; one second of it is enough here.
+        assert main(["mimic", "--video", str(servo_mp4), "--reference-direction", "90",
+                     "--max-seconds", "1", "--serial", os.ttyname(device), "--baud", "57600",
+                     "--servo-range", "10", "100", "--out", str(tmp_path)]) == 0
+        os.set_blocking(controller, False)
+        lines = os.read(controller, 65536).decode().splitlines()
+    finally:
+        os.close(controller)
+        os.close(device)
+    summary = json.loads((tmp_path / "mimic.json").read_text())
+    assert summary["frames"] == 30 and summary["servo_commands_sent"] == len(lines) > 3
+    assert all(10.0 <= float(line.split()[1]) <= 100.0 for line in lines)
