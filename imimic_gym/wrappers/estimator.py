@@ -38,16 +38,19 @@ def draw_estimate(picture: np.ndarray, estimate: Estimate) -> np.ndarray:
     import cv2
 
     out = picture.copy()
+    size = max(1.0, picture.shape[0] / 240)  # drawn the same at any resolution
+    line, dot = max(2, round(2 * size)), max(4, round(4 * size))
     if estimate.keypoints is not None:
         points = np.rint(np.asarray(estimate.keypoints)).astype(np.int32)
-        cv2.polylines(out, [points.reshape(-1, 1, 2)], False, (255, 220, 0), 2, cv2.LINE_AA)
+        cv2.polylines(out, [points.reshape(-1, 1, 2)], False, (255, 220, 0), line, cv2.LINE_AA)
         for x, y in points[:-1]:
-            cv2.circle(out, (int(x), int(y)), 4, (255, 220, 0), -1, cv2.LINE_AA)
+            cv2.circle(out, (int(x), int(y)), dot, (255, 220, 0), -1, cv2.LINE_AA)
     angles = " ".join(f"{np.degrees(q):+.0f}" for q in estimate.angles)
     text = f"estimate {angles} deg  eta {estimate.trust:.2f}"
     colour = (0, 230, 255) if estimate.predicted else (255, 220, 0)
-    cv2.putText(out, text, (6, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 3, cv2.LINE_AA)
-    cv2.putText(out, text, (6, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.45, colour, 1, cv2.LINE_AA)
+    origin, scale = (round(6 * size), round(16 * size)), 0.45 * size
+    for ink, width in (((0, 0, 0), round(3 * size)), (colour, max(1, round(size)))):
+        cv2.putText(out, text, origin, cv2.FONT_HERSHEY_SIMPLEX, scale, ink, width, cv2.LINE_AA)
     return out
 
 
