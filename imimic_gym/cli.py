@@ -9,7 +9,7 @@ from pathlib import Path
 
 import imimic_gym  # noqa: F401  (registers the env, sets headless GL)
 
-ESTIMATORS = ("oracle", "don")
+ESTIMATORS = ("oracle", "don", "cnn")
 
 
 def _save_json(path: str | None, data: object) -> None:
@@ -45,6 +45,12 @@ def cmd_demo(args: argparse.Namespace) -> int:
         print("  estimator: oracle. The robot reads the true angles: this shows the control "
               "loop's upper bound, not vision. Try --estimator don.")
         controller = OracleController(env)
+    elif args.estimator == "cnn":
+        from imimic_gym.wrappers import CNNObservation
+
+        print("  estimator: CNN + refiner (shipped checkpoint); controller: PD on its angles")
+        env = CNNObservation(env, keep_frame=False)
+        controller = PDController(env, EstimateTarget(env))
     else:
         from imimic_gym.wrappers import DONObservation
 
@@ -201,8 +207,8 @@ def build_parser() -> argparse.ArgumentParser:
                       help="robot actuation (default: %(default)s, the paper's servo)")
     demo.add_argument("--estimator", default="oracle", choices=ESTIMATORS,
                       help="where the robot's targets come from: the true angles (oracle, "
-                           "the upper bound) or DON on the video (one-link scenarios); "
-                           "default: %(default)s")
+                           "the upper bound), DON on the video (one-link scenarios) or the "
+                           "CNN + refiner (a person's arm, 1 or 2 links); default: %(default)s")
     demo.add_argument("--frames", type=int, default=None,
                       help="clip length in frames (default: the scenario's, 150 = 5 s)")
     demo.add_argument("--out", default="demo_out", help="output folder (default: %(default)s)")
@@ -236,7 +242,8 @@ def build_parser() -> argparse.ArgumentParser:
                           choices=one_link,
                           help="one or more one-link scenarios (default: %(default)s)")
     evaluate.add_argument("--estimator", nargs="+", default=["don"],
-                          choices=("don", "mog2", "camshift"), help="default: %(default)s")
+                          choices=("don", "mog2", "camshift", "cnn"),
+                          help="default: %(default)s")
     evaluate.add_argument("--episodes", type=int, default=3, help="clips per scenario")
     evaluate.add_argument("--first-seed", type=int, default=1000,
                           help="first held-out clip seed (default: %(default)s)")

@@ -1,3 +1,8 @@
-from imimic_gym.wrappers.estimator import DONObservation, EstimatorObservation, estimate_fields
+from imimic_gym.wrappers.estimator import (
+    CNNObservation,
+    DONObservation,
+    EstimatorObservation,
+    estimate_fields,
+)
 
-__all__ = ["DONObservation", "EstimatorObservation", "estimate_fields"]
+__all__ = ["CNNObservation", "DONObservation", "EstimatorObservation", "estimate_fields"]
