@@ -31,6 +31,7 @@ def main() -> None:
                         choices=sorted(EPOCHS_FOR))
     parser.add_argument("--work", default=None, help="folder for the generated annotations "
                         "and checkpoints (default: a temporary folder)")
+    parser.add_argument("--threads", type=int, default=2, help="torch threads per training run")
     parser.add_argument("--json", default=None, help="also write the results here")
     args = parser.parse_args()
     work = Path(args.work or tempfile.mkdtemp(prefix="cnn_curve_"))
@@ -51,7 +52,8 @@ def main() -> None:
             command = [sys.executable, str(ROOT / "training" / "train_cnn.py"), "--links",
                        str(links), "--annotations", str(train), "--test-annotations",
                        str(ROOT / "annotations" / f"arm{links}_test.json"), "--cnn-epochs",
-                       str(cnn_epochs), "--epochs", str(epochs), "--out", str(out)]
+                       str(cnn_epochs), "--epochs", str(epochs), "--out", str(out),
+                       "--threads", str(args.threads)]
             subprocess.run(command, check=True, cwd=work)
             meta = json.loads(out.with_suffix(".json").read_text())
             row = {"links": links, "train_images": meta["train_images"],

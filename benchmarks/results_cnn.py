@@ -47,11 +47,12 @@ def cnn_section() -> str:
         out.append(f"""
 ### Shipped checkpoint, {links} link(s): `checkpoints/cnn_arm{links}.pt`
 
-Command: `.venv/bin/python training/train_cnn.py --links {links} --out checkpoints/cnn_arm{links}.pt --json benchmarks/results/cnn_train_arm{links}.json`
+Command: `{meta['command'].replace('python ', '.venv/bin/python ', 1)}` (as recorded in the
+checkpoint's metadata; `checkpoints/cnn_arm{links}.json` is the same file)
 ({meta['train_images']} training images, {test['n_images']} test images, input
 {meta['input_hw'][0]}x{meta['input_hw'][1]}, paper schedule; training took
-{meta['train_seconds']:.0f} s on the shared 2-core machine while another helper trained
-too). "CNN" is the CNN after its own 10 epochs (the paper's CNN row); pixel errors are at
+{meta['train_seconds']:.0f} s of wall time on the shared 2-core machine, with other training
+runs beside it; the first trials, on a less busy machine, took 45-85 s). "CNN" is the CNN after its own 10 epochs (the paper's CNN row); pixel errors are at
 240x320; the angle error is the mean absolute joint-angle error.
 
 {_table(["test images", "model", "upper arm PCP@0.5", "lower arm PCP@0.5", "px error", "angle error (deg)"], _pcp_rows(test))}

@@ -173,8 +173,11 @@ def eval_only(args: Args) -> None:
     arms = read_annotations(path)
     images = load_images(arms, args.images)
     report = evaluate(model, arms, images, links)
+    # A saved network holds the CNN as trained together with the refiner, not the CNN
+    # after its own stage: its row is that CNN's output without the refiner.
     print(format_pcp_tables(report["cnn"], report["cnn_refiner"],
-                            title=f"{args.eval_only} on {path} ({len(arms)} images)"))
+                            title=f"{args.eval_only} on {path} ({len(arms)} images)",
+                            cnn_label="CNN stage, refiner skipped"))
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         Path(args.json).write_text(json.dumps(

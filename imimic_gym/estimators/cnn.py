@@ -281,7 +281,9 @@ class CNNEstimator:
         reference_direction: image direction (rad, CCW from image right) of the torso,
             for the 2-link shoulder angle.
         robot: the robot's MuJoCo model, for torques; None gives zero torque.
-        refine: False uses the CNN alone, without the refiner.
+        refine: False skips the refiner. Only meaningful for a network whose CNN was trained
+            alone: in the shipped ones CNN and refiner were trained together, and the CNN's
+            output is the refiner's input, not pixel coordinates.
     """
 
     def __init__(self, n_links: int = 1, checkpoint: str | Path | None = None,

@@ -51,9 +51,10 @@ def pcp_report(predicted: np.ndarray, truth: np.ndarray, n_links: int) -> dict[s
     return report
 
 
-def format_pcp_tables(cnn: dict[str, Any], refined: dict[str, Any], title: str = "") -> str:
-    """The paper's Tables 2 and 3 with our CNN and CNN + refiner rows beside its rows,
-    then the full test set and the pixel and angle errors."""
+def format_pcp_tables(cnn: dict[str, Any], refined: dict[str, Any], title: str = "",
+                      cnn_label: str = "CNN") -> str:
+    """The paper's Tables 2 and 3 with our CNN (labelled ``cnn_label``) and CNN + refiner
+    rows beside its rows, then the full test set and the pixel and angle errors."""
     lines = [title] if title else []
     for n in (20, 40):
         key = f"pcp_{n}"
@@ -62,13 +63,13 @@ def format_pcp_tables(cnn: dict[str, Any], refined: dict[str, Any], title: str =
         lines += [f"PCP@0.5 on the first {n} test images   upper arm  lower arm",
                   *(f"  paper: {name:28s} {u:9.3f}  {low:9.3f}"
                     for name, (u, low) in PAPER_PCP[n].items()),
-                  f"  ours:  {'CNN':28s} {cnn[key]['upper']:9.3f}  {cnn[key]['lower']:9.3f}",
+                  f"  ours:  {cnn_label:28s} {cnn[key]['upper']:9.3f}  {cnn[key]['lower']:9.3f}",
                   f"  ours:  {'CNN + refiner':28s} {refined[key]['upper']:9.3f}  "
                   f"{refined[key]['lower']:9.3f}"]
     n = cnn["n_images"]
     lines += [f"All {n} test images                      upper arm  lower arm  px error  "
               "angle error (deg)"]
-    for name, r in (("CNN", cnn), ("CNN + refiner", refined)):
+    for name, r in ((cnn_label, cnn), ("CNN + refiner", refined)):
         lines.append(f"  ours:  {name:28s} {r['pcp_all']['upper']:9.3f}  "
                      f"{r['pcp_all']['lower']:9.3f}  {r['mean_pixel_error']:8.2f}  "
                      f"{r['angle_error_deg']:8.2f}")

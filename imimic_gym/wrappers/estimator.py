@@ -115,7 +115,9 @@ class CNNObservation(EstimatorObservation):
         env: an ImitateVideo env whose demonstrator is a person's arm with 1 or 2 links.
         checkpoint: a checkpoint path; None loads the shipped ``checkpoints/cnn_arm<n>.pt``.
         keep_frame: see `EstimatorObservation`.
-        refine: False uses the CNN alone, without the refiner.
+        refine: False skips the refiner. Only meaningful for a network whose CNN was trained
+            alone: in the shipped ones CNN and refiner were trained together, and the CNN's
+            output is the refiner's input, not pixel coordinates.
     """
 
     def __init__(self, env: gym.Env, checkpoint: str | None = None, keep_frame: bool = True,
