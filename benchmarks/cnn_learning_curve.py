@@ -30,7 +30,8 @@ def main() -> None:
     parser.add_argument("--sizes", type=int, nargs="+", default=sorted(EPOCHS_FOR),
                         choices=sorted(EPOCHS_FOR))
     parser.add_argument("--work", default=None, help="folder for the generated annotations "
-                        "and checkpoints (default: a temporary folder)")
+                        "and checkpoints; what it already holds is reused, so an interrupted "
+                        "run resumes (default: a temporary folder)")
     parser.add_argument("--threads", type=int, default=2, help="torch threads per training run")
     parser.add_argument("--retrain-300", action="store_true",
                         help="train the 300-image point again instead of reading the shipped "
@@ -59,7 +60,7 @@ def main() -> None:
                        str(ROOT / "annotations" / f"arm{links}_test.json"), "--cnn-epochs",
                        str(cnn_epochs), "--epochs", str(epochs), "--out", str(out),
                        "--threads", str(args.threads)]
-            if out.parent == work:
+            if out.parent == work and not out.with_suffix(".json").exists():
                 subprocess.run(command, check=True, cwd=work)
             meta = json.loads(out.with_suffix(".json").read_text())
             row = {"links": links, "train_images": meta["train_images"],

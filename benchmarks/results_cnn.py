@@ -76,7 +76,9 @@ alone): {_met(min(test['cnn_refiner']['pcp_all'].values()) >= 0.8 and test['cnn_
         out.append(f"""
 ### Learning curve
 
-Command: `.venv/bin/python benchmarks/cnn_learning_curve.py --json benchmarks/results/cnn_learning_curve.json`
+Command: `.venv/bin/python benchmarks/cnn_learning_curve.py --links 1 2 --sizes 3000 1000 300 --threads 1 --work /tmp/cnn_curve --json benchmarks/results/cnn_learning_curve.json`
+(the 1-link checkpoints in `--work` came from an earlier run of the same command with
+`--links 1` and were reused)
 (CNN + refiner on the same 76 test images; 224 is the training part of the paper-sized
 300-image set, i.e. the shipped checkpoint's own run; the 1000 and 3000 sets are rendered
 the same way from their own clip seeds and train for fewer epochs, so every run makes

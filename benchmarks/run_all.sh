@@ -18,7 +18,8 @@ mkdir -p benchmarks/results
     --json benchmarks/results/cnn_train_arm1.json
 "$BIN/python" training/train_cnn.py --links 2 --out checkpoints/cnn_arm2.pt \
     --json benchmarks/results/cnn_train_arm2.json
-"$BIN/python" benchmarks/cnn_learning_curve.py --json benchmarks/results/cnn_learning_curve.json
+"$BIN/python" benchmarks/cnn_learning_curve.py --links 1 2 --threads 1 \
+    --json benchmarks/results/cnn_learning_curve.json
 if [ -d ../shared/realdata/coco_mini ]; then
     "$BIN/python" benchmarks/cnn_real_photos.py --json benchmarks/results/cnn_real_photos.json
 fi

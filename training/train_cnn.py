@@ -159,12 +159,14 @@ def augment(x: torch.Tensor, y: torch.Tensor, gen: torch.Generator,
 
 def evaluate(model: CNNRefiner, arms: list, images: list[np.ndarray],
              links: int) -> dict[str, dict]:
+    """PCP reports (`pcp_report`) of the CNN without and with the refiner."""
     truth = np.stack([a.keypoints for a in arms]).astype(np.float64)
     return {name: pcp_report(predict_keypoints(model, images, refine=refine), truth, links)
             for name, refine in (("cnn", False), ("cnn_refiner", True))}
 
 
 def eval_only(args: Args) -> None:
+    """Score --eval-only's checkpoint on --annotations (default: the shipped test set)."""
     model = load_model(args.eval_only)
     meta_path = Path(args.eval_only).with_suffix(".json")
     links = json.loads(meta_path.read_text())["links"] if meta_path.is_file() else args.links
