@@ -63,6 +63,24 @@ The paper on its 20 images: CNN {PAPER_20['CNN'][0]} / {PAPER_20['CNN'][1]}, CNN
 Acceptance (CNN + refiner at least 0.8 on both arms on all 76, and better than the CNN
 alone): {_met(min(test['cnn_refiner']['pcp_all'].values()) >= 0.8 and test['cnn_refiner']['pcp_all']['lower'] > test['cnn']['pcp_all']['lower'] and test['cnn_refiner']['pcp_all']['upper'] >= test['cnn']['pcp_all']['upper'])}.
 """)
+    fresh = _load("cnn_fresh_clone_run")
+    if fresh:
+        r = fresh["test"]["cnn_refiner"]["pcp_all"]
+        shipped = trained[1]["test"] if trained[1] else None
+        same = ("the same test figures as the shipped checkpoint's run (training is "
+                "deterministic under one seed)" if shipped == fresh["test"]
+                else "not the same test figures as the shipped checkpoint's run")
+        out.append(f"""
+### The default run on a fresh clone
+
+Command: `IMIMIC_CACHE_DIR=$(mktemp -d) {fresh['command'].replace('python ', '.venv/bin/python ', 1)}`
+(an empty cache, so the 300 images are regenerated from the annotations first). It
+finished in {fresh['wall_seconds']:.0f} s of wall time, {fresh['train_seconds']:.0f} s of it training, on the shared
+2-core machine with another helper's training beside it (target: under 10 minutes on 2
+free cores): CNN + refiner PCP@0.5 on the 76 test images {r['upper']:.3f} (upper arm) and
+{r['lower']:.3f} (lower arm), CNN alone {fresh['test']['cnn']['pcp_all']['upper']:.3f} and
+{fresh['test']['cnn']['pcp_all']['lower']:.3f}: {same}.
+""")
     curve = _load("cnn_learning_curve")
     if curve:
         rows = [[str(r["links"]), str(r["train_images"]), f"{r['cnn_epochs']} + {r['epochs']}",

@@ -189,6 +189,7 @@ def eval_only(args: Args) -> None:
 
 
 def main() -> None:
+    started = time.time()
     args = parse_args()
     torch.set_num_threads(args.threads)
     if args.eval_only:
@@ -258,7 +259,9 @@ def main() -> None:
     metadata = {
         "run_name": run_name, "links": args.links, "keypoint_names": list(ARM_KEYPOINTS),
         "input_hw": list(model.config.input_hw), "train_images": len(x),
-        "train_seconds": round(seconds, 1), "args": asdict(args),
+        "train_seconds": round(seconds, 1),
+        "wall_seconds": round(time.time() - started, 1),  # with data loading and regeneration
+        "args": asdict(args),
         "test": {"n_images": len(test_arms), "cnn": cnn_report, "cnn_refiner": report},
         "command": " ".join(["python", *sys.argv]),
     }
