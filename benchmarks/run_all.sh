@@ -18,4 +18,17 @@ mkdir -p benchmarks/results
     --episodes 10 --modality depth --json benchmarks/results/eval_depth.json
 # Real footage (issue 6): skipped with a message when ../shared/realdata is absent.
 "$BIN/python" benchmarks/real_footage.py --json benchmarks/results/real_footage.json
+# CNN + refiner (issue 4): shipped checkpoints, learning curve, real photos, eval, speed.
+"$BIN/python" training/train_cnn.py --links 1 --out checkpoints/cnn_arm1.pt \
+    --json benchmarks/results/cnn_train_arm1.json
+"$BIN/python" training/train_cnn.py --links 2 --out checkpoints/cnn_arm2.pt \
+    --json benchmarks/results/cnn_train_arm2.json
+"$BIN/python" benchmarks/cnn_learning_curve.py --links 1 2 --threads 1 \
+    --json benchmarks/results/cnn_learning_curve.json
+if [ -d ../shared/realdata/coco_mini ]; then
+    "$BIN/python" benchmarks/cnn_real_photos.py --json benchmarks/results/cnn_real_photos.json
+fi
+"$BIN/imimic" eval --scenario exp3-forearm-none --estimator cnn --episodes 3 \
+    --json benchmarks/results/eval_cnn.json
+"$BIN/python" benchmarks/cnn_speed.py --json benchmarks/results/cnn_speed.json
 "$BIN/python" benchmarks/write_results.py

@@ -9,6 +9,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from results_cnn import cnn_section
+
 HERE = Path(__file__).parent
 RESULTS = HERE / "results"
 
@@ -268,6 +270,7 @@ Against issue 3's acceptance:
   three joints, like DON for the 2-link chain, is not built yet, so it has no DON row.
 """]
     out.append(real_footage_section())
+    out.append(cnn_section())
     (HERE / "RESULTS.md").write_text("".join(out))
 
 

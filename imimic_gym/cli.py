@@ -9,7 +9,7 @@ from pathlib import Path
 
 import imimic_gym  # noqa: F401  (registers the env, sets headless GL)
 
-ESTIMATORS = ("don", "oracle")
+ESTIMATORS = ("don", "cnn", "oracle")
 
 
 def _save_json(path: str | None, data: object) -> None:
@@ -64,6 +64,12 @@ def cmd_demo(args: argparse.Namespace) -> int:
         print("  estimator: oracle. The robot reads the true angles: this shows the control "
               "loop's upper bound, not vision.")
         controller = OracleController(env)
+    elif args.estimator == "cnn":
+        from imimic_gym.wrappers import CNNObservation
+
+        print("  estimator: CNN + refiner (shipped checkpoint); controller: PD on its angles")
+        env = CNNObservation(env, keep_frame=False)
+        controller = PDController(env, EstimateTarget(env))
     else:
         from imimic_gym.wrappers import DONObservation
 
@@ -339,9 +345,10 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--control", default="position", choices=("position", "velocity", "torque"),
                       help="robot actuation (default: %(default)s, the paper's servo)")
     demo.add_argument("--estimator", default=None, choices=ESTIMATORS,
-                      help="where the robot's targets come from: DON on the video, or the "
-                           "true angles (oracle: the control loop's upper bound, no vision); "
-                           "default: don for one-link scenarios, oracle for the others")
+                      help="where the robot's targets come from: DON on the video (one-link "
+                           "scenarios), the CNN + refiner (a person's arm, 1 or 2 links), or "
+                           "the true angles (oracle: the control loop's upper bound, no "
+                           "vision); default: don for one-link scenarios, oracle for the others")
     demo.add_argument("--frames", type=int, default=None,
                       help="clip length in frames (default: the scenario's, 150 = 5 s)")
     demo.add_argument("--out", default="demo_out", help="output folder (default: %(default)s)")
@@ -375,7 +382,8 @@ def build_parser() -> argparse.ArgumentParser:
                           choices=one_link,
                           help="one or more one-link scenarios (default: %(default)s)")
     evaluate.add_argument("--estimator", nargs="+", default=["don"],
-                          choices=("don", "mog2", "camshift"), help="default: %(default)s")
+                          choices=("don", "mog2", "camshift", "cnn"),
+                          help="default: %(default)s")
     evaluate.add_argument("--episodes", type=int, default=3, help="clips per scenario")
     evaluate.add_argument("--modality", default="rgb", choices=("rgb", "depth"),
                           help="the colour video, or the depth video as grey frames "

@@ -13,16 +13,24 @@ from imimic_gym.metrics import angle_rmse_deg, lag_frames
 
 __all__ = ["ESTIMATORS", "WARM_UP_S", "evaluate_estimator", "make_estimator"]
 
-ESTIMATORS = ("don", "mog2", "camshift")
+ESTIMATORS = ("don", "mog2", "camshift", "cnn")
 WARM_UP_S = 0.5  # frame-differencing estimators see nothing until the arm has moved
 PREDICTION_ON = 0.3  # the trust threshold used for "with the prediction layer"
 
 
 def make_estimator(name: str, clip_meta: dict[str, Any], fps: float,
                    joint_range: tuple[float, float], **params: Any):
-    """An estimator set up for a clip: its fps, reference direction and joint range."""
+    """An estimator set up for a clip: its fps, reference direction and joint range
+    (the CNN takes the number of links instead: it needs no range)."""
     from imimic_gym.estimators.baselines import CamShiftEstimator, MOG2Estimator
     from imimic_gym.estimators.don import DON
+
+    if name == "cnn":
+        from imimic_gym.estimators.cnn import CNNEstimator
+
+        return CNNEstimator(n_links=int(clip_meta["n_links"]), fps=fps,
+                            reference_direction=float(clip_meta["reference_direction"]),
+                            **params)
 
     classes = {"don": DON, "mog2": MOG2Estimator, "camshift": CamShiftEstimator}
     if name not in classes:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["angle_rmse_deg", "lag_frames", "max_error_deg", "wrap_angle"]
+__all__ = ["angle_rmse_deg", "lag_frames", "max_error_deg", "pcp", "wrap_angle"]
 
 
 def wrap_angle(angle: np.ndarray) -> np.ndarray:
@@ -50,3 +50,28 @@ def lag_frames(truth: np.ndarray, follower: np.ndarray, max_lag: int = 30) -> in
         if score > best + 1e-12:
             best_lag, best = k, score
     return best_lag
+
+
+def pcp(predicted: np.ndarray, truth: np.ndarray, limb: tuple[int, int],
+        threshold: float = 0.5) -> float:
+    """Percentage of correct parts (PCP@threshold) of one limb, as a fraction in [0, 1].
+
+    A limb is correct when both its end points lie within ``threshold`` times the limb's
+    true length of their true positions (Ferrari et al.; the paper's PCP 0.5).
+
+    Args:
+        predicted, truth: (N, K, 2) keypoints, pixels.
+        limb: the indices of the limb's two end points among the K.
+    Returns:
+        the fraction of the N samples whose limb is correct (0.0 for N = 0).
+    """
+    predicted, truth = np.asarray(predicted, np.float64), np.asarray(truth, np.float64)
+    if predicted.shape != truth.shape or predicted.ndim != 3:
+        raise ValueError(f"predicted and truth must both be (N, K, 2), got {predicted.shape} "
+                         f"and {truth.shape}")
+    if len(truth) == 0:
+        return 0.0
+    a, b = limb
+    length = np.linalg.norm(truth[:, a] - truth[:, b], axis=1)
+    error = np.linalg.norm(predicted[:, [a, b]] - truth[:, [a, b]], axis=2)
+    return float(np.mean(np.all(error <= threshold * length[:, None], axis=1)))

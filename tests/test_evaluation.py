@@ -48,3 +48,11 @@ def test_eval_refuses_an_unknown_modality() -> None:
 def test_eval_refuses_multi_link_scenarios_for_now() -> None:
     with pytest.raises(ValueError, match="one moving link so far; 'chain-2' has 2"):
         evaluate_estimator("chain-2", "don", episodes=1)
+
+
+def test_eval_runs_the_shipped_cnn(tmp_path) -> None:
+    out = tmp_path / "eval.json"
+    assert main(["eval", "--scenario", "default", "--estimator", "cnn", "--episodes", "1",
+                 "--json", str(out)]) == 0
+    mean = json.loads(out.read_text())[0]["mean"]
+    assert mean["rmse_deg"] < 10.0 and mean["mean_trust"] == 1.0

@@ -26,3 +26,18 @@ def test_lag_of_a_shifted_signal_is_the_shift(shift: int) -> None:
 
 def test_lag_of_a_still_signal_is_zero() -> None:
     assert lag_frames(np.ones(50), np.ones(50)) == 0
+
+
+def test_pcp_counts_a_limb_correct_only_when_both_ends_are_within_half_its_length() -> None:
+    from imimic_gym.metrics import pcp
+
+    truth = np.array([[[0, 0], [10, 0], [10, 20]]] * 4, dtype=float)  # upper 10, lower 20
+    predicted = truth.copy()
+    predicted[1, 1] += [4.9, 0]  # elbow off by 4.9: upper (limit 5) and lower (10) still ok
+    predicted[2, 1] += [0, 5.1]  # elbow off by 5.1: upper wrong, lower ok
+    predicted[3, 2] += [6, 8]  # wrist off by 10.0: lower exactly at the limit, counted ok
+    assert pcp(predicted, truth, (0, 1)) == 0.75
+    assert pcp(predicted, truth, (1, 2)) == 1.0
+    predicted[3, 2] += [0.1, 0]
+    assert pcp(predicted, truth, (1, 2)) == 0.75
+    assert pcp(truth[:0], truth[:0], (0, 1)) == 0.0

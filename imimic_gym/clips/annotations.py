@@ -1,110 +1,316 @@
-"""COCO-keypoints annotations of a video: shoulder, elbow and wrist per frame, turned into
-truth joint angles (DESIGN.md convention).
+"""COCO-keypoints JSON, the one annotation format: read and write labelled arms.
 
-The file is standard COCO keypoints: ``images`` (one per frame), ``annotations`` (per
-person: ``image_id``, ``keypoints`` as flat x, y, v triples, v = 0 unlabelled, 1 occluded,
-2 visible) and ``categories`` whose ``keypoints`` list names them. Names may be COCO's
-``left_shoulder``/``right_shoulder``... (``side`` picks the arm) or plain ``shoulder``,
-``elbow``, ``wrist``.
+This is what CVAT and Label Studio export. Two kinds of category are read:
 
-Decisions:
-- Frame of an image: its ``frame_index`` (or ``frame_id``) field if every image has one,
-  else the images' order by ``id``.
-- Several people in a frame: the one with the most of the three keypoints labelled.
-- ``side="auto"``: the arm with more labelled keypoints over the whole file.
-- Angles, with image directions CCW from image right (y up): for one link, q1 is the
-  forearm's angle from the upper arm (the elbow; the upper arm is the reference link even
-  when it moves); for two, q1 is the upper arm's angle from ``reference_direction`` and
-  q2 the elbow. Frames without all three keypoints labelled get angles interpolated
-  between labelled frames (held at the ends) and ``visible`` False; velocities and
-  accelerations are central differences of the unwrapped angles.
+- an ``arm`` category whose keypoints are ``shoulder, elbow, wrist`` (what
+  `write_annotations` writes, and what a user labelling their own footage should use);
+- COCO's ``person`` category (17 keypoints): the arm is shoulder, elbow and wrist of one
+  side (indices 5-10). The person's left side is taken when all three are labelled (it is
+  the side our rendered demonstrator moves: on the image's right for a person facing the
+  camera), else the right side; a person with neither side complete is skipped.
+
+One arm per image: when an image has several usable annotations, the largest (by
+``area``, else by the keypoints' extent) is kept, since the estimators follow one arm.
+
+Keypoints are (x, y) pixels, x = column, y = row. COCO's visibility flag v is 0 (not
+labelled), 1 (labelled, occluded) or 2 (labelled, visible); ``labelled`` is v > 0.
+Images written by `clips.dataset` carry an ``imimic_render`` record (the `ClipSpec`
+fields and the frame index) from which their pixels are regenerated.
+
+Videos. A COCO file can also annotate the frames of a video (one image per frame): its
+``frame_index`` (or ``frame_id``) field if every image has one, else the images' order by
+``id``. `truth_from_coco` turns it into a `ClipTruth`:
+- several people in a frame: the one with the most of the three keypoints labelled;
+- ``side="auto"``: the arm with more labelled keypoints over the whole file (one side for
+  the whole video, not per frame);
+- frames without all three keypoints labelled get angles interpolated between labelled
+  frames (held at the ends) and ``visible`` False; velocities and accelerations are
+  central differences of the unwrapped angles.
+
+Angles follow one convention (DESIGN.md), `keypoints_to_angles`: for one link, q1 is the
+forearm's angle from the upper arm (the upper arm is the reference link even when it
+moves); for two, q1 is the upper arm's angle from ``reference_direction`` and q2 the
+elbow. Image directions are CCW from image right, with y up.
 """
 
 from __future__ import annotations
 
 import json
+import math
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from imimic_gym.clips.types import ClipTruth
 from imimic_gym.metrics import wrap_angle
 
-__all__ = ["AnnotationError", "arm_keypoints_from_coco", "truth_from_coco",
-           "truth_from_keypoints"]
+__all__ = [
+    "ARM_KEYPOINTS",
+    "AnnotationError",
+    "ArmAnnotation",
+    "arm_keypoints_from_coco",
+    "image_path",
+    "keypoints_to_angles",
+    "read_annotations",
+    "truth_from_coco",
+    "truth_from_keypoints",
+    "write_annotations",
+]
 
-ARM = ("shoulder", "elbow", "wrist")
+ARM_KEYPOINTS = ("shoulder", "elbow", "wrist")
+COCO_SIDES = {"left": (5, 7, 9), "right": (6, 8, 10)}  # shoulder, elbow, wrist indices
 
 
 class AnnotationError(ValueError):
-    """An annotation file is unusable; the message names the file and the problem."""
+    """A COCO-keypoints file is malformed; the message names the file and the entry."""
 
 
-def _names(data: dict, path: str) -> list[str]:
-    categories = data.get("categories") or []
-    for category in categories:
-        if category.get("keypoints"):
-            return [str(n) for n in category["keypoints"]]
-    raise AnnotationError(f"{path}: no category lists its keypoint names ('keypoints')")
+@dataclass(frozen=True)
+class ArmAnnotation:
+    """One labelled arm in one image.
+
+    Attributes:
+        file_name: the image's file name as the JSON gives it (relative to the images
+            folder).
+        width, height: the image's size in pixels.
+        keypoints: (3, 2) float32 pixel coordinates of shoulder, elbow, wrist.
+        labelled: (3,) bool, the keypoint has a position (COCO v > 0).
+        image_id: the COCO image id.
+        render: for rendered images, the record that regenerates them (`clips.dataset`);
+            None for photos.
+    """
+
+    file_name: str
+    width: int
+    height: int
+    keypoints: np.ndarray
+    labelled: np.ndarray
+    image_id: int
+    render: dict[str, Any] | None = field(default=None, compare=False)
+
+
+def _need(entry: dict, key: str, where: str, path: Path) -> Any:
+    if not isinstance(entry, dict) or key not in entry:
+        raise AnnotationError(f"{path}: {where} has no {key!r} key")
+    return entry[key]
+
+
+def _arm_indices(category: dict, path: Path) -> tuple[list[tuple[int, int, int]], int]:
+    """The candidate (shoulder, elbow, wrist) index triples of a category, in preference
+    order, and its keypoint count."""
+    names = list(_need(category, "keypoints", f"category {category.get('id')!r}", path))
+    if all(n in names for n in ARM_KEYPOINTS):
+        return [tuple(names.index(n) for n in ARM_KEYPOINTS)], len(names)
+    coco = [f"{side}_{joint}" for side in ("left", "right") for joint in ARM_KEYPOINTS]
+    if all(n in names for n in coco):
+        return [tuple(names.index(f"{side}_{j}") for j in ARM_KEYPOINTS)
+                for side in COCO_SIDES], len(names)
+    raise AnnotationError(
+        f"{path}: category {category.get('name')!r} has keypoints {names}; expected "
+        f"{list(ARM_KEYPOINTS)} or COCO's person keypoints (left_/right_ shoulder, elbow, wrist)"
+    )
+
+
+def read_annotations(path: str | Path) -> list[ArmAnnotation]:
+    """Read a COCO-keypoints JSON file: one `ArmAnnotation` per image that has a complete
+    arm (all three keypoints labelled), in the file's image order.
+
+    Raises:
+        FileNotFoundError: ``path`` does not exist.
+        AnnotationError: not JSON, a missing key, a keypoint list of the wrong length, an
+            annotation for an unknown image or category.
+    """
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except json.JSONDecodeError as err:
+        raise AnnotationError(f"{path}: not valid JSON ({err})") from err
+    for key in ("images", "annotations", "categories"):
+        if not isinstance(data, dict) or key not in data:
+            raise AnnotationError(f"{path}: a COCO-keypoints file needs a top-level {key!r} key")
+    categories = {}
+    for category in data["categories"]:
+        cid = _need(category, "id", "a category", path)
+        categories[cid] = _arm_indices(category, path)
+    images = {}
+    for i, image in enumerate(data["images"]):
+        where = f"images[{i}]"
+        images[_need(image, "id", where, path)] = image
+        for key in ("file_name", "width", "height"):
+            _need(image, key, where, path)
+    best: dict[Any, tuple[float, ArmAnnotation]] = {}
+    for i, ann in enumerate(data["annotations"]):
+        where = f"annotations[{i}]"
+        image_id = _need(ann, "image_id", where, path)
+        if image_id not in images:
+            raise AnnotationError(f"{path}: {where} refers to image_id {image_id!r}, "
+                                  "which is not in 'images'")
+        cid = _need(ann, "category_id", where, path)
+        if cid not in categories:
+            raise AnnotationError(f"{path}: {where} has category_id {cid!r}, "
+                                  f"expected one of {sorted(categories)}")
+        sides, count = categories[cid]
+        flat = _need(ann, "keypoints", where, path)
+        if not isinstance(flat, list) or len(flat) != 3 * count:
+            got = len(flat) if isinstance(flat, list) else type(flat).__name__
+            raise AnnotationError(f"{path}: {where} has {got} keypoint values; its category "
+                                  f"has {count} keypoints, so expected {3 * count} (x, y, v)")
+        triples = np.asarray(flat, dtype=np.float64).reshape(count, 3)
+        side = next((s for s in sides if np.all(triples[list(s), 2] > 0)), None)
+        if side is None:
+            continue
+        points = triples[list(side), :2]
+        size = float(ann.get("area") or np.ptp(points, axis=0).prod())
+        image = images[image_id]
+        arm = ArmAnnotation(
+            file_name=str(image["file_name"]), width=int(image["width"]),
+            height=int(image["height"]), keypoints=points.astype(np.float32),
+            labelled=np.ones(3, dtype=bool), image_id=int(image_id),
+            render=image.get("imimic_render"),
+        )
+        if image_id not in best or size > best[image_id][0]:
+            best[image_id] = (size, arm)
+    return [best[i][1] for i in images if i in best]
+
+
+def write_annotations(path: str | Path, arms: list[ArmAnnotation],
+                      description: str = "imimic_gym arm keypoints") -> None:
+    """Write ``arms`` as a COCO-keypoints JSON file with one ``arm`` category
+    (shoulder, elbow, wrist), coordinates rounded to 1/1000 pixel. `read_annotations`
+    reads it back."""
+    images, annotations = [], []
+    for i, arm in enumerate(arms):
+        image = {"id": arm.image_id, "file_name": arm.file_name, "width": arm.width,
+                 "height": arm.height}
+        if arm.render is not None:
+            image["imimic_render"] = arm.render
+        images.append(image)
+        flat: list[float] = []
+        for (x, y), labelled in zip(arm.keypoints.tolist(), arm.labelled.tolist(), strict=True):
+            flat += [round(x, 3), round(y, 3), 2 if labelled else 0]
+        x0, y0 = arm.keypoints.min(axis=0).tolist()
+        x1, y1 = arm.keypoints.max(axis=0).tolist()
+        annotations.append({
+            "id": i + 1, "image_id": arm.image_id, "category_id": 1, "keypoints": flat,
+            "num_keypoints": int(arm.labelled.sum()), "iscrowd": 0,
+            "bbox": [round(x0, 3), round(y0, 3), round(x1 - x0, 3), round(y1 - y0, 3)],
+            "area": round((x1 - x0) * (y1 - y0), 3),
+        })
+    data = {
+        "info": {"description": description},
+        "images": images,
+        "annotations": annotations,
+        "categories": [{"id": 1, "name": "arm", "supercategory": "person",
+                        "keypoints": list(ARM_KEYPOINTS), "skeleton": [[1, 2], [2, 3]]}],
+    }
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    Path(path).write_text(json.dumps(data, indent=1) + "\n")
+
+
+def image_path(arm: ArmAnnotation, images_dir: str | Path) -> Path:
+    """Where ``arm``'s image is: ``images_dir/file_name``.
+
+    Raises:
+        FileNotFoundError: the file is not there (the message names the path).
+    """
+    path = Path(images_dir) / arm.file_name
+    if not path.is_file():
+        raise FileNotFoundError(f"image {path} (image_id {arm.image_id}) not found; "
+                                "pass the folder that holds the annotated images as --images")
+    return path
+
+
+def keypoints_to_angles(keypoints: np.ndarray, n_links: int,
+                        reference_direction: float = -math.pi / 2) -> np.ndarray:
+    """Joint angles (DESIGN.md convention) from shoulder, elbow, wrist pixels.
+
+    Args:
+        keypoints: (..., 3, 2) pixel (x, y) of shoulder, elbow, wrist (image y down).
+        n_links: 1 (the forearm: q1 = forearm from the upper arm, whose direction is
+            measured, not assumed) or 2 (q1 = upper arm from ``reference_direction``, the
+            torso's axis in the image, rad CCW from image right; q2 = forearm from the upper
+            arm). The torso's roll is not in the keypoints: with body sway it adds to q1's
+            error.
+    Returns:
+        (..., n_links) float64 rad in [-pi, pi), counter-clockwise positive.
+    """
+    k = np.asarray(keypoints, dtype=np.float64)
+    if k.shape[-2:] != (3, 2):
+        raise ValueError(f"keypoints must have shape (..., 3, 2), got {k.shape}")
+    delta = np.diff(k, axis=-2)
+    direction = np.arctan2(-delta[..., 1], delta[..., 0])  # CCW, image up
+    forearm = wrap_angle(direction[..., 1] - direction[..., 0])
+    if n_links == 1:
+        return forearm[..., None]
+    if n_links == 2:
+        return np.stack([wrap_angle(direction[..., 0] - reference_direction), forearm], axis=-1)
+    raise ValueError(f"shoulder, elbow and wrist give 1 or 2 joint angles, not {n_links}")
 
 
 def arm_keypoints_from_coco(path: str | Path, n_frames: int,
                             side: str = "auto") -> tuple[np.ndarray, np.ndarray]:
-    """Shoulder, elbow and wrist per frame from a COCO-keypoints file.
+    """Shoulder, elbow and wrist per frame of a video from its COCO-keypoints file.
 
     Returns keypoints (T, 3, 2) float32 pixels (x, y; NaN where unlabelled) and labelled
     (T, 3) bool (v > 0), T = ``n_frames``.
     """
-    path = str(path)
     if side not in ("auto", "left", "right"):
         raise ValueError(f"side must be 'auto', 'left' or 'right', got {side!r}")
+    path = Path(path)
     try:
-        data = json.loads(Path(path).read_text())
+        data = json.loads(path.read_text())
     except FileNotFoundError as err:
         raise AnnotationError(f"{path}: no such annotation file") from err
     except json.JSONDecodeError as err:
-        raise AnnotationError(f"{path} is not JSON: {err}") from err
+        raise AnnotationError(f"{path}: not valid JSON ({err})") from err
     if not isinstance(data, dict) or "images" not in data or "annotations" not in data:
         raise AnnotationError(f"{path} is not COCO keypoints: it needs 'images' and "
                               "'annotations'")
-    names = _names(data, path)
-    sides = [""] if all(n in names for n in ARM) else ["left_", "right_"]
-    columns = {}
-    for prefix in sides:
-        if all(prefix + n in names for n in ARM):
-            columns[prefix] = [names.index(prefix + n) for n in ARM]
-    if not columns:
-        raise AnnotationError(f"{path}: keypoint names {names} have no shoulder, elbow, wrist")
-
-    images = sorted(data["images"], key=lambda image: image["id"])
+    # Candidate (shoulder, elbow, wrist) triples per category, named by side.
+    sides_of: dict[Any, dict[str, tuple[int, int, int]]] = {}
+    for category in data.get("categories") or []:
+        triples, _ = _arm_indices(category, path)
+        names = list(COCO_SIDES) if len(triples) == 2 else ["arm"]
+        sides_of[_need(category, "id", "a category", path)] = dict(zip(names, triples,
+                                                                       strict=True))
+    if not sides_of:
+        raise AnnotationError(f"{path}: no category lists its keypoint names ('keypoints')")
+    images = sorted(data["images"], key=lambda image: _need(image, "id", "an image", path))
     key = next((k for k in ("frame_index", "frame_id") if all(k in i for i in images)), None)
     frame_of = {image["id"]: int(image[key]) if key else i for i, image in enumerate(images)}
     if frame_of and max(frame_of.values()) >= n_frames:
         raise AnnotationError(f"{path} annotates frame {max(frame_of.values())}, but the "
                               f"video has {n_frames} frames")
 
-    per_side = {prefix: (np.full((n_frames, 3, 2), np.nan, np.float32),
-                         np.zeros((n_frames, 3), bool)) for prefix in columns}
-    best = {prefix: np.full(n_frames, -1) for prefix in columns}
-    for annotation in data["annotations"]:
+    names = sorted({name for sides in sides_of.values() for name in sides})
+    keypoints = {n: np.full((n_frames, 3, 2), np.nan, np.float32) for n in names}
+    labelled = {n: np.zeros((n_frames, 3), bool) for n in names}
+    for i, annotation in enumerate(data["annotations"]):
         frame = frame_of.get(annotation.get("image_id"))
         if frame is None:
             continue
-        triples = np.asarray(annotation.get("keypoints", []), dtype=np.float64).reshape(-1, 3)
-        for prefix, idx in columns.items():
+        sides = sides_of.get(annotation.get("category_id"))
+        if sides is None:
+            raise AnnotationError(f"{path}: annotations[{i}] has category_id "
+                                  f"{annotation.get('category_id')!r}, expected one of "
+                                  f"{sorted(sides_of)}")
+        triples = np.asarray(_need(annotation, "keypoints", f"annotations[{i}]", path),
+                             dtype=np.float64).reshape(-1, 3)
+        for name, idx in sides.items():
             if max(idx) >= len(triples):
-                raise AnnotationError(f"{path}: annotation {annotation.get('id')} has "
-                                      f"{len(triples)} keypoints, names list {len(names)}")
-            labelled = triples[idx, 2] > 0
-            if labelled.sum() > best[prefix][frame]:
-                best[prefix][frame] = labelled.sum()
-                per_side[prefix][0][frame] = np.where(labelled[:, None], triples[idx, :2], np.nan)
-                per_side[prefix][1][frame] = labelled
-    if side == "auto":
-        chosen = max(columns, key=lambda p: per_side[p][1].sum())
+                raise AnnotationError(f"{path}: annotations[{i}] has {len(triples)} "
+                                      f"keypoints, fewer than its category names")
+            seen = triples[list(idx), 2] > 0
+            if seen.sum() > labelled[name][frame].sum():  # the best-labelled person
+                keypoints[name][frame] = np.where(seen[:, None], triples[list(idx), :2], np.nan)
+                labelled[name][frame] = seen
+    if side == "auto" or side not in keypoints:
+        chosen = max(names, key=lambda n: labelled[n].sum())
     else:
-        chosen = "" if "" in columns else f"{side}_"
-    return per_side[chosen]
+        chosen = side
+    return keypoints[chosen], labelled[chosen]
 
 
 def truth_from_keypoints(keypoints: np.ndarray, labelled: np.ndarray, fps: float, n_links: int,
@@ -118,15 +324,7 @@ def truth_from_keypoints(keypoints: np.ndarray, labelled: np.ndarray, fps: float
     if not complete.any():
         raise AnnotationError(f"{source}: no frame has shoulder, elbow and wrist all labelled")
 
-    def direction(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        d = b - a
-        return np.arctan2(-d[:, 1], d[:, 0]).astype(np.float64)  # image y points down
-
-    upper = direction(keypoints[:, 0], keypoints[:, 1])
-    fore = direction(keypoints[:, 1], keypoints[:, 2])
-    elbow = wrap_angle(fore - upper)
-    angles = (elbow[:, None] if n_links == 1
-              else np.stack([wrap_angle(upper - reference_direction), elbow], axis=1))
+    angles = keypoints_to_angles(np.nan_to_num(keypoints), n_links, reference_direction)
     t = np.arange(len(angles))
     filled = np.empty_like(angles)
     for j in range(n_links):
@@ -147,7 +345,7 @@ def truth_from_keypoints(keypoints: np.ndarray, labelled: np.ndarray, fps: float
         keypoints=points.astype(np.float32),
         visible=labelled.copy(),
         occlusion=np.zeros(len(t), dtype=np.float32),
-        keypoint_names=ARM,
+        keypoint_names=ARM_KEYPOINTS,
     )
 
 

@@ -1,8 +1,12 @@
 from imimic_gym.wrappers.estimator import (
+    CNNObservation,
     DONObservation,
     EstimatorObservation,
     draw_estimate,
     estimate_fields,
 )
 
-__all__ = ["DONObservation", "EstimatorObservation", "draw_estimate", "estimate_fields"]
+__all__ = [
+    "CNNObservation", "DONObservation", "EstimatorObservation", "draw_estimate",
+    "estimate_fields",
+]

@@ -16,7 +16,10 @@ from gymnasium import spaces
 from imimic_gym.estimators.don import DON
 from imimic_gym.estimators.types import Estimate, Estimator
 
-__all__ = ["DONObservation", "EstimatorObservation", "draw_estimate", "estimate_fields"]
+__all__ = [
+    "CNNObservation", "DONObservation", "EstimatorObservation", "draw_estimate",
+    "estimate_fields",
+]
 
 # Bounds of the estimate vector, so the space is finite (checkers warn on infinite ones)
 # and a wild estimate cannot leave it: angles rad, omega rad/s, alpha rad/s^2, torque N m.
@@ -136,3 +139,39 @@ class DONObservation(EstimatorObservation):
             **don_params,
         }
         super().__init__(env, DON(**params), keep_frame=keep_frame)
+
+
+class CNNObservation(EstimatorObservation):
+    """`EstimatorObservation` with the CNN + refiner (`estimators/cnn.py`), set up from the
+    env: its frame rate, the clip's reference direction, the number of links, and the
+    robot's model for torques. Keypoints become joint angles, and the shared path
+    estimator gives angular velocity, acceleration and torque.
+
+    Args:
+        env: an ImitateVideo env whose demonstrator is a person's arm with 1 or 2 links.
+        checkpoint: a checkpoint path; None loads the shipped ``checkpoints/cnn_arm<n>.pt``.
+        keep_frame: see `EstimatorObservation`.
+        refine: False skips the refiner. Only meaningful for a network whose CNN was trained
+            alone: in the shipped ones CNN and refiner were trained together, and the CNN's
+            output is the refiner's input, not pixel coordinates.
+    """
+
+    def __init__(self, env: gym.Env, checkpoint: str | None = None, keep_frame: bool = True,
+                 refine: bool = True) -> None:
+        from imimic_gym.estimators.cnn import CNNEstimator
+
+        gym.utils.RecordConstructorArgs.__init__(self, checkpoint=checkpoint,
+                                                 keep_frame=keep_frame, refine=refine)
+        inner = env.unwrapped
+        demonstrator = inner.clip.meta.get("demonstrator", "human")
+        if demonstrator != "human" or inner.arm.n_links not in (1, 2):
+            raise ValueError(
+                "the CNN finds a person's shoulder, elbow and wrist (1 or 2 links); this env "
+                f"shows a {demonstrator!r} demonstrator with {inner.arm.n_links} links"
+            )
+        estimator = CNNEstimator(
+            n_links=inner.arm.n_links, checkpoint=checkpoint, fps=float(inner.clip.fps),
+            reference_direction=float(inner.clip.meta.get("reference_direction", -np.pi / 2)),
+            robot=inner.model, refine=refine,
+        )
+        super().__init__(env, estimator, keep_frame=keep_frame)

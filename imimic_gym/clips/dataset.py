@@ -1,0 +1,171 @@
+"""The labelled-arm dataset of rendered demonstrator images, and loading any labelled set.
+
+The shipped dataset (``annotations/arm{1,2}_{train,test}.json``) holds no pixels: each
+image records the `ClipSpec` (seed included) and the frame index it was rendered from
+(``imimic_render``), and the SHA-256 of its RGB bytes. The renderer is deterministic,
+so `load_images` regenerates the images bit for bit on first use and caches them as PNG
+(lossless) under ``<clip cache>/dataset_images``, named by spec and frame. A cached file
+whose hash no longer matches is rendered again.
+
+The paper's dataset is 300 images, 224 for training and 76 for testing. Ours: per
+number of links, clips of varied background, lighting, camera distance, body sway and
+random (spline) motion, four frames from each, and the split made by clip (56 train
+clips, 19 test clips), so no test pose is a neighbouring frame of a training one.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import os
+import tempfile
+from collections import defaultdict
+from dataclasses import asdict
+from pathlib import Path
+
+import cv2
+import numpy as np
+from tqdm.auto import tqdm
+
+from imimic_gym.clips.annotations import ArmAnnotation, image_path
+from imimic_gym.clips.cache import cache_dir
+from imimic_gym.clips.scenarios import ClipSpec
+from imimic_gym.clips.synthetic import render_clip
+
+__all__ = ["DEFAULT_ANNOTATIONS", "IMAGES_PER_CLIP", "generate_arms", "load_images",
+           "rendered_image_path"]
+
+DEFAULT_ANNOTATIONS = Path(__file__).resolve().parents[2] / "annotations"
+IMAGES_PER_CLIP = 4
+CLIP_FRAMES = 60  # 2 s of spline motion: four frames from it are four different poses
+log = logging.getLogger(__name__)
+
+
+def _sample_spec(links: int, seed: int, rng: np.random.Generator) -> ClipSpec:
+    """A clip with random background, lighting, distance and sway (all within the range
+    the env's scenarios use)."""
+    return ClipSpec(
+        n_links=links, motion="spline", seed=seed, n_frames=CLIP_FRAMES,
+        background=str(rng.choice(["plain", "textured", "cluttered"])),
+        lighting=round(float(rng.uniform(0.5, 1.0)), 3),
+        camera_distance=round(float(rng.uniform(1.9, 2.6)), 3),
+        sway=round(float(rng.uniform(0.0, 1.0)), 3),
+    )
+
+
+def _digest(image: np.ndarray) -> str:
+    return hashlib.sha256(np.ascontiguousarray(image).tobytes()).hexdigest()
+
+
+def rendered_image_path(render: dict) -> Path:
+    """Cache file of a rendered image: ``<clip cache>/dataset_images/<spec key>_f<k>.png``."""
+    spec = ClipSpec(**render["spec"])
+    return cache_dir() / "dataset_images" / f"{spec.key()}_f{render['frame_index']:03d}.png"
+
+
+def _store(path: Path, rgb: np.ndarray) -> None:
+    """Write a PNG under a temporary name, then rename: a reader never sees half a file."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    ok, png = cv2.imencode(".png", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
+    if not ok:
+        raise OSError(f"could not encode {path}")
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.stem, suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(png.tobytes())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def generate_arms(links: int, n_clips: int, first_seed: int, rng_seed: int,
+                  prefix: str, progress: bool = True) -> list[ArmAnnotation]:
+    """Render ``n_clips`` random clips of a ``links``-link demonstrator (seeds from
+    ``first_seed``) and label ``IMAGES_PER_CLIP`` distinct frames of each with the true
+    shoulder, elbow and wrist; the images go into the cache. ``rng_seed`` draws the
+    clips' settings and frames. File names are ``<prefix>/c<seed>_f<frame>.png``."""
+    rng = np.random.default_rng(rng_seed)
+    arms = []
+    for seed in tqdm(range(first_seed, first_seed + n_clips), desc=f"rendering {prefix}",
+                     disable=not progress, unit="clip"):
+        spec = _sample_spec(links, seed, rng)
+        frames = np.sort(rng.choice(CLIP_FRAMES, IMAGES_PER_CLIP, replace=False))
+        clip = render_clip(spec, progress=False)
+        assert clip.truth is not None
+        names = clip.truth.keypoint_names
+        index = [names.index(n) for n in ("shoulder", "elbow", "wrist")]
+        fields = asdict(spec)
+        fields.pop("name")
+        for k in frames.tolist():
+            render = {"spec": fields, "frame_index": k, "sha256": _digest(clip.frames[k])}
+            _store(rendered_image_path(render), clip.frames[k])
+            arms.append(ArmAnnotation(
+                file_name=f"{prefix}/c{seed}_f{k:03d}.png", width=spec.width,
+                height=spec.height, keypoints=clip.truth.keypoints[k, index].copy(),
+                labelled=np.ones(3, dtype=bool), image_id=len(arms) + 1, render=render))
+    return arms
+
+
+def _read_rgb(path: Path) -> np.ndarray | None:
+    bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    return None if bgr is None else cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+
+
+def _regenerate(arms: list[ArmAnnotation], progress: bool) -> None:
+    """Render the clips of the rendered images missing from the cache, each clip once."""
+    missing: dict[str, list[dict]] = defaultdict(list)
+    specs: dict[str, ClipSpec] = {}
+    for arm in arms:
+        path = rendered_image_path(arm.render)
+        cached = _read_rgb(path) if path.is_file() else None
+        if cached is None or _digest(cached) != arm.render.get("sha256", _digest(cached)):
+            spec = ClipSpec(**arm.render["spec"])
+            specs[spec.key()] = spec
+            missing[spec.key()].append(arm.render)
+    for key in tqdm(missing, desc="regenerating dataset images",
+                    disable=not (progress and missing), unit="clip"):
+        renders = missing[key]
+        last = max(r["frame_index"] for r in renders)
+        clip = render_clip(specs[key].replace(n_frames=max(last + 1, specs[key].n_frames)),
+                           progress=False)
+        for render in renders:
+            image = clip.frames[render["frame_index"]]
+            if render.get("sha256") and _digest(image) != render["sha256"]:
+                log.warning("regenerated %s differs from the recorded image (another "
+                            "renderer build?); using it anyway", rendered_image_path(render))
+            _store(rendered_image_path(render), image)
+
+
+def load_images(arms: list[ArmAnnotation], images_dir: str | Path | None = None,
+                progress: bool = True) -> list[np.ndarray]:
+    """The images of ``arms``, each (H, W, 3) uint8 RGB.
+
+    Rendered images (``render`` set) come from the cache, regenerated when missing;
+    others are read from ``images_dir`` (their ``file_name`` is relative to it).
+
+    Raises:
+        ValueError: a photo's annotation but no ``images_dir``.
+        FileNotFoundError: an image file is missing (the message names the path).
+        OSError: an image file cannot be decoded.
+    """
+    rendered = [a for a in arms if a.render is not None]
+    if rendered and images_dir is None:
+        _regenerate(rendered, progress)
+    images = []
+    for arm in arms:
+        if arm.render is not None and images_dir is None:
+            path = rendered_image_path(arm.render)
+        elif images_dir is None:
+            raise ValueError(f"image {arm.file_name!r} is a photo, not a rendered image: "
+                             "pass the folder that holds it (--images)")
+        else:
+            path = image_path(arm, images_dir)
+        rgb = _read_rgb(path)
+        if rgb is None:
+            raise OSError(f"image {path} could not be decoded")
+        if rgb.shape[:2] != (arm.height, arm.width):
+            raise ValueError(f"image {path} is {rgb.shape[1]}x{rgb.shape[0]}, but its "
+                             f"annotation says {arm.width}x{arm.height}")
+        images.append(rgb)
+    return images

@@ -1,0 +1,46 @@
+"""The real training script, run as a user runs it, with a tiny budget."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+from imimic_gym.clips.annotations import read_annotations, write_annotations
+from imimic_gym.clips.dataset import DEFAULT_ANNOTATIONS
+
+SCRIPT = Path(__file__).resolve().parents[2] / "training" / "train_cnn.py"
+
+
+def run(*args: str, cwd: Path) -> str:
+    done = subprocess.run([sys.executable, str(SCRIPT), *args], cwd=cwd, capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-3000:]
+    return done.stdout
+
+
+def test_one_epoch_run_writes_a_checkpoint_that_eval_only_scores_the_same(tmp_path: Path) -> None:
+    test = tmp_path / "tiny_test.json"
+    write_annotations(test, read_annotations(DEFAULT_ANNOTATIONS / "arm1_test.json")[:4])
+    out = run("--limit", "14", "--cnn-epochs", "1", "--epochs", "1", "--threads", "1",
+              "--test-annotations", str(test), "--out", "model/cnn.pt", cwd=tmp_path)
+    assert "PCP@0.5" not in out.split("All 4 test images")[0]  # fewer than 20: no paper rows
+    assert "All 4 test images" in out
+    meta = json.loads((tmp_path / "model" / "cnn.json").read_text())
+    assert meta["train_images"] == 14 and meta["keypoint_names"] == ["shoulder", "elbow", "wrist"]
+    assert meta["input_hw"] == [60, 80] and meta["args"]["epochs"] == 1
+    assert len(list((tmp_path / "runs").glob("cnn_arm1__1__*/log.csv"))) == 1
+
+    run("--eval-only", "model/cnn.pt", "--annotations", str(test), "--json", "pcp.json",
+        cwd=tmp_path)
+    scored = json.loads((tmp_path / "pcp.json").read_text())
+    trained = meta["test"]["cnn_refiner"]
+    assert scored["cnn_refiner"]["pcp_all"] == trained["pcp_all"]
+    assert abs(scored["cnn_refiner"]["mean_pixel_error"] - trained["mean_pixel_error"]) < 0.5
+
+
+def test_help_explains_every_option(tmp_path: Path) -> None:
+    out = run("--help", cwd=tmp_path)
+    for flag in ("--annotations", "--images", "--links", "--epochs", "--out", "--eval-only",
+                 "--json", "--batch-size"):
+        assert flag in out
+    assert "paper: 14" in out

@@ -1,0 +1,276 @@
+"""Train the paper's CNN + refiner (§4) on labelled arms and print its PCP tables.
+
+    .venv/bin/python training/train_cnn.py                      # 1 link, the shipped dataset
+    .venv/bin/python training/train_cnn.py --links 2 --out checkpoints/cnn_arm2.pt
+    .venv/bin/python training/train_cnn.py --annotations my.json --images my_frames/
+    .venv/bin/python training/train_cnn.py --eval-only checkpoints/cnn_arm1.pt --json pcp.json
+
+Paper defaults: Adam, batch 14, the CNN alone for 10 epochs, then CNN + refiner together
+for 100 epochs with the custom loss (coordinate error + link-length error). Writes the
+checkpoint (a state_dict) with a metadata JSON beside it, and a CSV log, into
+runs/<run name>/ unless --out says otherwise.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import csv
+import inspect
+import itertools
+import json
+import os
+import random
+import sys
+import time
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import numpy as np
+import torch
+from tqdm.auto import tqdm
+
+from imimic_gym.clips.annotations import ARM_KEYPOINTS, read_annotations, write_annotations
+from imimic_gym.clips.dataset import DEFAULT_ANNOTATIONS, load_images
+from imimic_gym.estimators.cnn import (
+    CNNRefiner,
+    NetConfig,
+    keypoint_loss,
+    load_model,
+    predict_keypoints,
+    save_model,
+    to_input,
+    to_units,
+)
+from imimic_gym.estimators.cnn_report import format_pcp_tables, pcp_report
+
+
+@dataclass
+class Args:
+    exp_name: str = "cnn"
+    """the name of this experiment; the run name is <exp_name>_arm<links>__<seed>__<time>"""
+    links: int = 1
+    """moving links, 1 (forearm) or 2 (shoulder and elbow): picks the shipped dataset and
+    how keypoints become joint angles"""
+    annotations: str | None = None
+    """COCO-keypoints JSON to train on (with --eval-only: to evaluate on); default: the
+    shipped annotations/arm<links>_train.json"""
+    test_annotations: str | None = None
+    """COCO-keypoints JSON to test on; default: the shipped test file, or, when
+    --annotations is given, a seeded 25% of its images"""
+    images: str | None = None
+    """folder of the annotated images (their file_name is relative to it); default: rendered
+    images regenerated bit-identically from the annotations' records"""
+    seed: int = 1
+    """seed of python, numpy and torch"""
+    cnn_epochs: int = 10
+    """epochs of the CNN alone (paper: 10)"""
+    epochs: int = 100
+    """epochs of the combined CNN + refiner (paper: 100)"""
+    batch_size: int = 14
+    """images per Adam step (paper: 14)"""
+    learning_rate: float = 1e-3
+    """Adam's learning rate; it decays to zero along a cosine over each stage (the paper
+    gives no schedule; the decay halves the final pixel error)"""
+    augment: bool = True
+    """shift each image by up to 5 input pixels and scale its brightness by 0.8-1.2: 224
+    images are few, and the shifts keep the net from memorising positions"""
+    init: str | None = None
+    """start from this checkpoint instead of random weights (fine-tuning)"""
+    limit: int = 0
+    """train on only the first N training images (0: all); for quick trials"""
+    threads: int = 2
+    """torch CPU threads"""
+    out: str | None = None
+    """checkpoint path; default: runs/<run name>/cnn_arm<links>.pt (metadata .json beside)"""
+    eval_only: str | None = None
+    """evaluate this checkpoint on the test images, print the PCP tables, and stop"""
+    json: str | None = None
+    """also write the PCP report to this JSON file"""
+
+
+def field_docs(cls: type) -> dict[str, str]:
+    """The docstring under each field of a dataclass (CleanRL's style), for --help."""
+    body = ast.parse(inspect.getsource(cls)).body[0].body
+    docs = {}
+    for node, after in itertools.pairwise(body):
+        if isinstance(node, ast.AnnAssign) and isinstance(after, ast.Expr):
+            docs[node.target.id] = " ".join(str(after.value.value).split())
+    return docs
+
+
+def parse_args() -> Args:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    docs = field_docs(Args)
+    for f in fields(Args):
+        doc = docs[f.name].replace("%", "%%")
+        flag, help_text = "--" + f.name.replace("_", "-"), f"{doc} (default: %(default)s)"
+        if f.type == "bool":
+            parser.add_argument(flag, action=argparse.BooleanOptionalAction, default=f.default,
+                                help=help_text)
+        else:
+            kind = {"int": int, "float": float}.get(f.type, str)
+            parser.add_argument(flag, type=kind, default=f.default, help=help_text)
+    args = Args(**vars(parser.parse_args()))
+    if args.links not in (1, 2):
+        parser.error(f"--links must be 1 or 2, got {args.links}")
+    return args
+
+
+def load_split(args: Args, run_dir: Path) -> tuple[list, list]:
+    """(train, test) arm annotations, per --annotations / --test-annotations."""
+    shipped = DEFAULT_ANNOTATIONS / f"arm{args.links}"
+    train = read_annotations(args.annotations or f"{shipped}_train.json")
+    if args.test_annotations or not args.annotations:
+        test = read_annotations(args.test_annotations or f"{shipped}_test.json")
+    else:
+        order = np.random.default_rng(args.seed).permutation(len(train))
+        cut = len(train) - max(1, len(train) // 4)
+        train, test = [train[i] for i in order[:cut]], [train[i] for i in order[cut:]]
+        for name, arms in (("train", train), ("test", test)):
+            write_annotations(run_dir / f"split_{name}.json", arms)
+    return (train[: args.limit] if args.limit else train), test
+
+
+def arrays(arms: list, images: list[np.ndarray], config: NetConfig) -> tuple:
+    """Network inputs (N, 3, h, w) and targets (N, 6) in input widths."""
+    hw = np.array([im.shape[:2] for im in images])
+    targets = to_units(np.stack([a.keypoints for a in arms]).astype(np.float64), hw, config)
+    return to_input(images, config), torch.from_numpy(targets)
+
+
+def augment(x: torch.Tensor, y: torch.Tensor, gen: torch.Generator,
+            max_shift: float = 5.0) -> tuple:
+    """Shift each image by up to ``max_shift`` input pixels (edges replicated; keypoints
+    move with it) and scale its brightness by 0.8-1.2."""
+    n, _, h, w = x.shape
+    shift = (torch.rand(n, 2, generator=gen) * 2 - 1) * max_shift  # pixels (dx, dy)
+    theta = torch.zeros(n, 2, 3)
+    theta[:, 0, 0], theta[:, 1, 1] = 1.0, 1.0
+    theta[:, 0, 2], theta[:, 1, 2] = -2 * shift[:, 0] / w, -2 * shift[:, 1] / h
+    grid = torch.nn.functional.affine_grid(theta, list(x.shape), align_corners=False)
+    moved = torch.nn.functional.grid_sample(x, grid, padding_mode="border", align_corners=False)
+    gain = 0.8 + 0.4 * torch.rand(n, 1, 1, 1, generator=gen)
+    return (moved + 0.5) * gain - 0.5, y + (shift / w).repeat(1, 3)
+
+
+def evaluate(model: CNNRefiner, arms: list, images: list[np.ndarray],
+             links: int) -> dict[str, dict]:
+    """PCP reports (`pcp_report`) of the CNN without and with the refiner."""
+    truth = np.stack([a.keypoints for a in arms]).astype(np.float64)
+    return {name: pcp_report(predict_keypoints(model, images, refine=refine), truth, links)
+            for name, refine in (("cnn", False), ("cnn_refiner", True))}
+
+
+def eval_only(args: Args) -> None:
+    """Score --eval-only's checkpoint on --annotations (default: the shipped test set)."""
+    model = load_model(args.eval_only)
+    meta_path = Path(args.eval_only).with_suffix(".json")
+    links = json.loads(meta_path.read_text())["links"] if meta_path.is_file() else args.links
+    path = (args.annotations or args.test_annotations
+            or DEFAULT_ANNOTATIONS / f"arm{links}_test.json")
+    arms = read_annotations(path)
+    images = load_images(arms, args.images)
+    report = evaluate(model, arms, images, links)
+    # A saved network holds the CNN as trained together with the refiner, not the CNN
+    # after its own stage: its row is that CNN's output without the refiner.
+    print(format_pcp_tables(report["cnn"], report["cnn_refiner"],
+                            title=f"{args.eval_only} on {path} ({len(arms)} images)",
+                            cnn_label="CNN stage, refiner skipped"))
+    if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(json.dumps(
+            {"checkpoint": str(args.eval_only), "annotations": str(path), "links": links,
+             **report}, indent=2) + "\n")
+        print(f"wrote {args.json}")
+
+
+def main() -> None:
+    started = time.time()
+    args = parse_args()
+    torch.set_num_threads(args.threads)
+    if args.eval_only:
+        eval_only(args)
+        return
+    run_name = f"{args.exp_name}_arm{args.links}__{args.seed}__{int(time.time())}"
+    run_dir = Path("runs") / run_name
+    run_dir.mkdir(parents=True, exist_ok=True)
+    out = Path(args.out) if args.out else run_dir / f"cnn_arm{args.links}.pt"
+
+    # Seeding: the same seed gives the same batches, shifts and weights.
+    random.seed(args.seed)
+    np.random.seed(args.seed)
+    torch.manual_seed(args.seed)
+    gen = torch.Generator().manual_seed(args.seed)
+
+    train_arms, test_arms = load_split(args, run_dir)
+    train_images = load_images(train_arms, args.images)
+    test_images = load_images(test_arms, args.images)
+    model = load_model(args.init) if args.init else CNNRefiner(NetConfig())
+    x, y = arrays(train_arms, train_images, model.config)
+    print(f"{run_name}: {len(x)} training, {len(test_arms)} test images, input "
+          f"{model.config.input_hw}, {sum(p.numel() for p in model.parameters())} weights")
+
+    log_file = (run_dir / "log.csv").open("w", newline="")
+    log = csv.writer(log_file)
+    log.writerow(["epoch", "global_step", "tag", "value"])
+    stages = [("cnn", args.cnn_epochs, False, model.cnn.parameters()),
+              ("combined", args.epochs, True, model.parameters())]
+    progress = tqdm(total=args.cnn_epochs + args.epochs, desc="training", unit="epoch")
+    step, start = 0, time.time()
+    cnn_report = None
+    for stage, epochs, refine, params in stages:
+        optimizer = torch.optim.Adam(params, lr=args.learning_rate)
+        schedule = torch.optim.lr_scheduler.CosineAnnealingLR(optimizer, max(epochs, 1))
+        # The CNN alone learns plain coordinate MSE (paper §4.1); the combined network the
+        # custom loss (§4.3).
+        for _ in range(epochs):
+            model.train()
+            order = torch.randperm(len(x), generator=gen)
+            total = 0.0
+            for batch in order.split(args.batch_size):
+                xb, yb = x[batch], y[batch]
+                if args.augment:
+                    xb, yb = augment(xb, yb, gen)
+                pred = model(xb, refine=refine)
+                loss = (keypoint_loss(pred, yb) if refine
+                        else torch.nn.functional.mse_loss(pred, yb))
+                optimizer.zero_grad()
+                loss.backward()
+                optimizer.step()
+                total += loss.item() * len(batch)
+                step += 1
+            schedule.step()
+            log.writerow([progress.n, step, f"losses/{stage}", total / len(x)])
+            progress.set_postfix(stage=stage, loss=f"{total / len(x):.5f}")
+            progress.update()
+        if stage == "cnn":
+            cnn_report = evaluate(model, test_arms, test_images, args.links)["cnn"]
+    progress.close()
+    report = evaluate(model, test_arms, test_images, args.links)["cnn_refiner"]
+    seconds = time.time() - start
+    log.writerow([progress.n, step, "charts/train_seconds", seconds])
+    log_file.close()
+    print(format_pcp_tables(cnn_report, report, title=f"{run_name}: test set, "
+                            f"{len(test_arms)} images (training took {seconds:.0f} s)"))
+    metadata = {
+        "run_name": run_name, "links": args.links, "keypoint_names": list(ARM_KEYPOINTS),
+        "input_hw": list(model.config.input_hw), "train_images": len(x),
+        "train_seconds": round(seconds, 1),
+        "wall_seconds": round(time.time() - started, 1),  # with data loading and regeneration
+        "args": asdict(args),
+        "test": {"n_images": len(test_arms), "cnn": cnn_report, "cnn_refiner": report},
+        "command": " ".join(["python", *sys.argv]),
+    }
+    save_model(model, out, metadata)
+    print(f"wrote {out} and {out.with_suffix('.json')}; log in {run_dir / 'log.csv'}")
+    if args.json:
+        Path(args.json).write_text(json.dumps(metadata, indent=2) + "\n")
+        print(f"wrote {args.json}")
+
+
+if __name__ == "__main__":
+    main()
