@@ -1,3 +1,8 @@
-from imimic_gym.wrappers.estimator import DONObservation, EstimatorObservation, estimate_fields
+from imimic_gym.wrappers.estimator import (
+    DONObservation,
+    EstimatorObservation,
+    TruthObservation,
+    estimate_fields,
+)
 
-__all__ = ["DONObservation", "EstimatorObservation", "estimate_fields"]
+__all__ = ["DONObservation", "EstimatorObservation", "TruthObservation", "estimate_fields"]
