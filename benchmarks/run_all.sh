@@ -13,4 +13,10 @@ mkdir -p benchmarks/results
 "$BIN/imimic" eval --scenario exp2-servo default exp3-forearm-none exp3-forearm-low \
     exp3-forearm-high exp1-noisy-fast --estimator don mog2 camshift --episodes 3 \
     --json benchmarks/results/eval.json
+"$BIN/imimic" eval --scenario exp2-servo exp3-forearm-low --estimator don \
+    --controller position velocity torque position-hold velocity-hold torque-hold learned \
+    --episodes 5 --num-envs 2 --out benchmarks/results/tracking \
+    --json benchmarks/results/tracking.json
+"$BIN/imimic" eval --paper --json benchmarks/results/paper.json --out benchmarks/results/paper
+"$BIN/python" benchmarks/eval_paper_time.py --json benchmarks/results/paper_time.json
 "$BIN/python" benchmarks/write_results.py

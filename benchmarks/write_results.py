@@ -9,6 +9,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from results_tracking import render as render_tracking
+
 HERE = Path(__file__).parent
 RESULTS = HERE / "results"
 
@@ -219,6 +221,7 @@ Against issue 3's acceptance:
   and its matching branching robot exist (the oracle table above tracks it); DON for its
   three joints, like DON for the 2-link chain, is not built yet, so it has no DON row.
 """]
+    out.append(render_tracking(load, table))
     (HERE / "RESULTS.md").write_text("".join(out))
 
 

@@ -56,6 +56,8 @@ class Args:
     """clip length in frames (None: the scenario's, 150); short clips for smoke runs"""
     residual_scale: float = 0.5
     """the policy's action, times this, is added to the position controller's action"""
+    hold_until_moving: bool = True
+    """the position controller under the residual holds the start pose until DON moves"""
     net_arch: tuple[int, ...] = (64, 64)
     """hidden layers of the actor and the critics"""
     learning_rate: float = 1e-3
@@ -85,7 +87,10 @@ def parse_args() -> Args:
     for f in fields(Args):
         default = getattr(Args, f.name, None) if f.name != "run_name" else ""
         flag = "--" + f.name.replace("_", "-")
-        if isinstance(default, tuple):
+        if isinstance(default, bool):
+            parser.add_argument(flag, action=argparse.BooleanOptionalAction, default=default,
+                                help=docs[f.name])
+        elif isinstance(default, tuple):
             kind = type(default[0])
             parser.add_argument(flag, nargs="+", type=kind, default=default, help=docs[f.name])
         elif f.name == "frames":
@@ -123,7 +128,7 @@ def make_env(scenario: str, seeds: tuple[int, ...], args: Args,
     env = gym.make("ImitateVideo-v0", scenario=scenario, control="position",
                    clip_seeds=seeds, **kwargs)
     return ResidualTracking(DONObservation(env, keep_frame=False), args.residual_scale,
-                            reward_scale)
+                            reward_scale, args.hold_until_moving)
 
 
 def reward_scales(args: Args, seeds: tuple[int, ...]) -> dict[str, float]:
@@ -263,6 +268,7 @@ def main() -> None:
         "net_arch": list(args.net_arch),
         "residual_scale": args.residual_scale,
         "reward_scales": scales,
+        "hold_until_moving": args.hold_until_moving,
         "control": "position",
         "estimator": "don",
         "scenarios": list(args.scenarios),

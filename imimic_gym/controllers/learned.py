@@ -91,8 +91,9 @@ class TrackerFeatures:
 class _Residual:
     """The scripted position target plus ``scale`` times the policy's action."""
 
-    def __init__(self, env: gym.Env, scale: float) -> None:
-        self.base, self.features, self.scale = PositionController(env), TrackerFeatures(env), scale
+    def __init__(self, env: gym.Env, scale: float, hold_until_moving: bool) -> None:
+        self.base = PositionController(env, hold_until_moving=hold_until_moving)
+        self.features, self.scale = TrackerFeatures(env), scale
 
     def reset(self) -> None:
         self.base.reset()
@@ -106,19 +107,20 @@ class _Residual:
 class ResidualTracking(gym.Wrapper):
     """Training view of an estimator-wrapped ImitateVideo env (``control="position"``):
     observations are `TrackerFeatures`, actions in [-1, 1] are residuals added (times
-    ``residual_scale``) to `PositionController`'s normalised servo target. The reward is
-    the env's times ``reward_scale`` (its truth stays in the reward and in ``info``, never
-    in observations).
+    ``residual_scale``) to `PositionController`'s normalised servo target (holding the
+    start pose until the estimate moves if ``hold_until_moving``). The reward is the env's
+    times ``reward_scale`` (its truth stays in the reward and in ``info``, never in
+    observations).
     """
 
-    def __init__(self, env: gym.Env, residual_scale: float = 0.5,
-                 reward_scale: float = 1.0) -> None:
+    def __init__(self, env: gym.Env, residual_scale: float = 0.5, reward_scale: float = 1.0,
+                 hold_until_moving: bool = True) -> None:
         super().__init__(env)
         if not isinstance(env.observation_space, spaces.Dict) or (
                 "estimate" not in env.observation_space.spaces):
             raise TypeError("ResidualTracking needs an estimator wrapper's obs['estimate'] "
                             f"(e.g. DONObservation), got {env.observation_space}")
-        self.residual = _Residual(env, residual_scale)
+        self.residual = _Residual(env, residual_scale, hold_until_moving)
         self.reward_scale = reward_scale
         self.observation_space = self.residual.features.space
         self.action_space = spaces.Box(-1.0, 1.0, shape=env.action_space.shape, dtype=np.float32)
@@ -142,7 +144,7 @@ def load_policy(path: str | Path, metadata: dict[str, Any]) -> Any:
     ``state_dict`` saved by ``training/train_tracker.py``, loaded with
     ``weights_only=True``: no pickled code runs)."""
     import torch
-    from stable_baselines3.common.utils import get_schedule_fn
+    from stable_baselines3.common.utils import ConstantSchedule
 
     algo = metadata["algorithm"]
     size, n = metadata["observation_size"], metadata["action_size"]
@@ -154,7 +156,7 @@ def load_policy(path: str | Path, metadata: dict[str, Any]) -> Any:
         from stable_baselines3.common.policies import ActorCriticPolicy as Policy
     else:
         raise ValueError(f"{path}: metadata 'algorithm' must be 'sac' or 'ppo', got {algo!r}")
-    policy = Policy(obs_space, act_space, get_schedule_fn(0.0),
+    policy = Policy(obs_space, act_space, ConstantSchedule(0.0),
                     net_arch=list(metadata["net_arch"]))
     policy.load_state_dict(torch.load(path, map_location="cpu", weights_only=True))
     policy.set_training_mode(False)
@@ -184,7 +186,8 @@ class LearnedController:
         if env.unwrapped.control != "position":
             raise ValueError("LearnedController drives control='position' actuation; this "
                              f"env has control={env.unwrapped.control!r}")
-        self.residual = _Residual(env, float(self.metadata["residual_scale"]))
+        self.residual = _Residual(env, float(self.metadata["residual_scale"]),
+                                  bool(self.metadata["hold_until_moving"]))
         if self.metadata["observation_size"] != self.residual.features.size:
             raise ValueError(f"{meta_path}: a policy for {self.metadata['observation_size']} "
                              f"features, this env gives {self.residual.features.size}")

@@ -55,17 +55,29 @@ class EstimateTarget:
 
     The estimate describes the frame the env shows; the reward compares the robot with
     the next one. Leading the angle by omega / fps (one frame) removes that frame of lag.
+
+    ``hold_until_moving``: a frame-differencing estimator knows nothing until the arm
+    moves, and meanwhile repeats its first guess (DON: the middle of the joint range),
+    while the robot starts where the arm is. Trusting that guess drives the robot away
+    and back. With the option on, the target is the robot's first observed pose (at
+    rest) until the estimate first changes; everything it uses is in the observation.
     """
 
-    def __init__(self, env: gym.Env, lead_frames: float = 1.0) -> None:
+    def __init__(self, env: gym.Env, lead_frames: float = 1.0,
+                 hold_until_moving: bool = False) -> None:
         from imimic_gym.wrappers.estimator import estimate_fields
 
         inner = env.unwrapped
         self.fields = estimate_fields(inner.arm.n_links)
         self.lead_s = lead_frames / float(inner.clip.fps)
+        self.hold_until_moving = hold_until_moving
+        self.reset()
 
     def reset(self) -> None:
-        """Stateless: everything it needs is in the observation."""
+        """Forget the episode's first estimate and pose."""
+        self._first: np.ndarray | None = None
+        self._start: np.ndarray | None = None
+        self._holding = self.hold_until_moving
 
     def reference(self, obs: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The led target: angles (rad), omega (rad/s) and alpha (rad/s^2), each (n,).
@@ -76,12 +88,17 @@ class EstimateTarget:
         estimate = obs["estimate"]
         angles, omega, alpha = (estimate[self.fields[k]].astype(np.float64)
                                 for k in ("angles", "omega", "alpha"))
+        if self._holding:
+            if self._first is None:
+                self._first = angles
+                self._start = np.asarray(obs["qpos"], dtype=np.float64).copy()
+            if np.array_equal(angles, self._first):
+                return self._start.copy(), np.zeros_like(omega), np.zeros_like(alpha)
+            self._holding = False
         return angles + self.lead_s * omega, omega + self.lead_s * alpha, alpha
 
     def __call__(self, obs: dict[str, Any]) -> np.ndarray:
-        estimate = obs["estimate"]
-        angles = estimate[self.fields["angles"]].astype(np.float64)
-        return angles + self.lead_s * estimate[self.fields["omega"]]
+        return self.reference(obs)[0]
 
 
 class PDController:
@@ -154,12 +171,14 @@ def _require_control(env: gym.Env, control: str, name: str) -> None:
                          f"control={env.unwrapped.control!r}")
 
 
-def PositionController(env: gym.Env, lead_frames: float = 1.0) -> PDController:
+def PositionController(env: gym.Env, lead_frames: float = 1.0,
+                       hold_until_moving: bool = False) -> PDController:
     """The paper's setting: the servo's target is the estimated angle (led by one frame of
     the estimated omega), and the servo closes the loop itself. Needs
-    ``control="position"`` and an estimator wrapper's ``obs["estimate"]``."""
+    ``control="position"`` and an estimator wrapper's ``obs["estimate"]``;
+    ``hold_until_moving`` as in `EstimateTarget`."""
     _require_control(env, "position", "PositionController")
-    return PDController(env, EstimateTarget(env, lead_frames=lead_frames))
+    return PDController(env, EstimateTarget(env, lead_frames, hold_until_moving))
 
 
 class VelocityController(PDController):
@@ -174,9 +193,10 @@ class VelocityController(PDController):
     then runs a frame ahead of the arm).
     """
 
-    def __init__(self, env: gym.Env, bandwidth_hz: float = 4.0, lead_frames: float = 0.0) -> None:
+    def __init__(self, env: gym.Env, bandwidth_hz: float = 4.0, lead_frames: float = 0.0,
+                 hold_until_moving: bool = False) -> None:
         _require_control(env, "velocity", "VelocityController")
-        self.reference = EstimateTarget(env, lead_frames=lead_frames)
+        self.reference = EstimateTarget(env, lead_frames, hold_until_moving)
         super().__init__(env, self.reference, bandwidth_hz=bandwidth_hz)
 
     def __call__(self, obs: dict[str, Any]) -> np.ndarray:
@@ -198,9 +218,9 @@ class TorqueController(PDController):
     """
 
     def __init__(self, env: gym.Env, bandwidth_hz: float = 4.0, lead_frames: float = 0.0,
-                 alpha_feedforward: float = 1.0) -> None:
+                 alpha_feedforward: float = 1.0, hold_until_moving: bool = False) -> None:
         _require_control(env, "torque", "TorqueController")
-        self.reference = EstimateTarget(env, lead_frames=lead_frames)
+        self.reference = EstimateTarget(env, lead_frames, hold_until_moving)
         self.alpha_feedforward = alpha_feedforward
         super().__init__(env, self.reference, bandwidth_hz=bandwidth_hz)
 
