@@ -62,7 +62,8 @@ is within 5 degrees again (a lower bound when it never gets there). The `-hold` 
 keep the start pose until DON's estimate first moves (DON's first guess is the middle of
 the joint range while the robot starts at the arm's pose). `learned` is the shipped
 policy (`checkpoints/tracker.pt`): {meta['algorithm'].upper()}, a residual on
-position-hold, trained {meta['total_timesteps']} steps in {meta['train_seconds']:.0f} s with
+{meta['control']}{'-hold' if meta['hold_until_moving'] else ''}, trained
+{meta['total_timesteps']} steps in {meta['train_seconds']:.0f} s with
 {meta['torch_threads']} torch thread on scenarios {', '.join(meta['scenarios'])}, clip
 seeds {meta['train_seeds'][0]}-{meta['train_seeds'][-1]}, stable-baselines3
 {meta['stable_baselines3']} (command: `.venv/bin/python training/train_tracker.py`).

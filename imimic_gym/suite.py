@@ -86,6 +86,7 @@ def _scripted(name: str, hold: bool = False) -> Callable[[gym.Env], Any]:
 # Controller name -> (the env's control mode, factory taking the wrapped env). The oracle
 # reads the truth one frame ahead from the env itself and ignores the estimate. The
 # "-hold" variants keep the start pose until the estimate first moves (`EstimateTarget`).
+# The learned tracker's control mode is its checkpoint's (`RunConfig.control`).
 CONTROLLERS: dict[str, tuple[str, Callable[[gym.Env], Any]]] = {
     "oracle": ("position", _oracle),
     "position": ("position", _scripted("position")),
@@ -117,6 +118,10 @@ class RunConfig:
 
     @property
     def control(self) -> str:
+        if self.controller == "learned":
+            from imimic_gym.controllers.learned import checkpoint_control
+
+            return checkpoint_control()
         return CONTROLLERS[self.controller][0]
 
     def env_kwargs(self) -> dict[str, Any]:

@@ -54,8 +54,14 @@ class Args:
     """env steps between periodic evaluations"""
     frames: int | None = None
     """clip length in frames (None: the scenario's, 150); short clips for smoke runs"""
+    control: str = "position"
+    """the robot's actuation, and so the scripted controller under the residual:
+    position or velocity"""
     residual_scale: float = 0.5
-    """the policy's action, times this, is added to the position controller's action"""
+    """the policy's action, times this, is added to the scripted controller's action"""
+    reward_balance: float = 1.0
+    """each scenario's reward is divided by the position controller's mean squared error
+    there to this power: 1 weighs scenarios by relative improvement, 0 by raw error"""
     hold_until_moving: bool = True
     """the position controller under the residual holds the start pose until DON moves"""
     net_arch: tuple[int, ...] = (64, 64)
@@ -67,7 +73,7 @@ class Args:
     batch_size: int = 256
     """SAC minibatch (PPO: minibatch size too)"""
     learning_starts: int = 2_000
-    """SAC: env steps of the untrained policy (= the position controller) before updates"""
+    """SAC: env steps with uniformly random residuals (exploration) before the first update"""
     seed: int = 0
     """seeds torch, numpy, random and the envs"""
     threads: int = 1
@@ -101,6 +107,8 @@ def parse_args() -> Args:
     args = Args(**{k: tuple(v) if isinstance(v, list) else v for k, v in vars(ns).items()})
     if args.algorithm not in ("sac", "ppo"):
         parser.error(f"--algorithm must be sac or ppo, got {args.algorithm!r}")
+    if args.control not in ("position", "velocity"):
+        parser.error(f"--control must be position or velocity, got {args.control!r}")
     if any(s >= 1000 for s in args.val_seeds) or args.train_seeds > 900:
         parser.error("training and validation clip seeds must stay below 1000 (held out) and "
                      "the training seeds below the validation ones")
@@ -125,17 +133,18 @@ def make_env(scenario: str, seeds: tuple[int, ...], args: Args,
              reward_scale: float = 1.0) -> gym.Env:
     """ImitateVideo-v0 (position control) -> DON (no frame) -> residual features/actions."""
     kwargs = {"n_frames": args.frames} if args.frames else {}
-    env = gym.make("ImitateVideo-v0", scenario=scenario, control="position",
+    env = gym.make("ImitateVideo-v0", scenario=scenario, control=args.control,
                    clip_seeds=seeds, **kwargs)
     return ResidualTracking(DONObservation(env, keep_frame=False), args.residual_scale,
                             reward_scale, args.hold_until_moving)
 
 
 def reward_scales(args: Args, seeds: tuple[int, ...]) -> dict[str, float]:
-    """Per scenario, 1 / the position controller's mean squared error (rad^2) on the first
-    two training clips. Scaled so, every scenario's reward counts relative to what the
-    scripted controller already achieves there: otherwise the occluded forearm's errors
-    (tens of degrees) drown the servo's (a degree or two) in the critic's targets."""
+    """Per scenario, (the position controller's mean squared error (rad^2) on the first
+    two training clips) ** -reward_balance. With balance 1 every scenario's reward counts
+    relative to what the scripted controller already achieves there; with 0 the occluded
+    forearm's errors (tens of degrees) drown the servo's (a degree or two) in the
+    critic's targets."""
     scales = {}
     for scenario in args.scenarios:
         env = make_env(scenario, seeds, args)
@@ -147,7 +156,7 @@ def reward_scales(args: Args, seeds: tuple[int, ...]) -> dict[str, float]:
                 _, reward, terminated, truncated, _ = env.step(np.zeros(env.action_space.shape))
                 squared.append(-reward)
                 done = terminated or truncated
-        scales[scenario] = 1.0 / max(float(np.mean(squared)), 1e-6)
+        scales[scenario] = max(float(np.mean(squared)), 1e-6) ** -args.reward_balance
         env.close()
     return scales
 
@@ -167,7 +176,7 @@ def episode_rmse_deg(env: gym.Env, act, seeds: tuple[int, ...]) -> float:
 
 
 def evaluate(policy, args: Args) -> dict[str, float]:
-    """Deterministic policy vs the untrained residual (the position controller) on the
+    """Deterministic policy vs the untrained residual (the scripted controller) on the
     validation seeds: RMSE (deg) per scenario, mean over seeds."""
     result = {}
     for scenario in args.scenarios:
@@ -175,7 +184,7 @@ def evaluate(policy, args: Args) -> dict[str, float]:
         untrained = np.zeros(env.action_space.shape, dtype=np.float32)
         result[f"{scenario}/learned_rmse_deg"] = episode_rmse_deg(
             env, lambda o: policy.predict(o, deterministic=True)[0], args.val_seeds)
-        result[f"{scenario}/position_rmse_deg"] = episode_rmse_deg(
+        result[f"{scenario}/scripted_rmse_deg"] = episode_rmse_deg(
             env, lambda o, a=untrained: a, args.val_seeds)
         env.close()
     return result
@@ -269,7 +278,7 @@ def main() -> None:
         "residual_scale": args.residual_scale,
         "reward_scales": scales,
         "hold_until_moving": args.hold_until_moving,
-        "control": "position",
+        "control": args.control,
         "estimator": "don",
         "scenarios": list(args.scenarios),
         "train_seeds": list(train_seeds),

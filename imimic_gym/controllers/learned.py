@@ -1,10 +1,11 @@
-"""A learned tracker: a stable-baselines3 policy that corrects the position controller.
+"""A learned tracker: a stable-baselines3 policy that corrects a scripted controller.
 
 The policy sees only what a real deployment has: the robot's joint state, the
 estimator's output (angles, omega, alpha, trust, predicted), how the estimate changed
 since the last frame, and the time since the episode began. It never sees the truth.
-Its action is a residual on `PositionController`'s servo target, so an untrained
-policy (action 0) is exactly the scripted controller, and training only has to learn
+Its action is a residual on a scripted controller's action (`PositionController`'s servo
+target, or `VelocityController`'s velocity command), so an untrained policy (action 0)
+is exactly the scripted controller, and training only has to learn
 what the estimate gets wrong: that DON knows nothing until the arm moves (its first
 guess is the middle of the joint range while the robot starts at the true pose), that
 the estimate lags, and when a jumpy estimate is better not followed.
@@ -24,11 +25,11 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from imimic_gym.controllers.scripted import PositionController
+from imimic_gym.controllers.scripted import SCRIPTED_CONTROLLERS
 from imimic_gym.metrics import wrap_angle
 
 __all__ = ["DEFAULT_CHECKPOINT", "LearnedController", "ResidualTracking", "TrackerFeatures",
-           "load_policy"]
+           "checkpoint_control", "load_policy"]
 
 DEFAULT_CHECKPOINT = Path(__file__).resolve().parents[2] / "checkpoints" / "tracker.pt"
 FEATURES_VERSION = 1
@@ -89,10 +90,15 @@ class TrackerFeatures:
 
 
 class _Residual:
-    """The scripted position target plus ``scale`` times the policy's action."""
+    """The scripted controller's action (for the env's control mode) plus ``scale`` times
+    the policy's action."""
 
     def __init__(self, env: gym.Env, scale: float, hold_until_moving: bool) -> None:
-        self.base = PositionController(env, hold_until_moving=hold_until_moving)
+        control = env.unwrapped.control
+        if control not in ("position", "velocity"):
+            raise ValueError("the learned tracker corrects the position or velocity "
+                             f"controller; this env has control={control!r}")
+        self.base = SCRIPTED_CONTROLLERS[control](env, hold_until_moving=hold_until_moving)
         self.features, self.scale = TrackerFeatures(env), scale
 
     def reset(self) -> None:
@@ -104,18 +110,22 @@ class _Residual:
         return np.clip(base + self.scale * np.asarray(residual), -1.0, 1.0).astype(np.float32)
 
 
-class ResidualTracking(gym.Wrapper):
-    """Training view of an estimator-wrapped ImitateVideo env (``control="position"``):
-    observations are `TrackerFeatures`, actions in [-1, 1] are residuals added (times
-    ``residual_scale``) to `PositionController`'s normalised servo target (holding the
-    start pose until the estimate moves if ``hold_until_moving``). The reward is the env's
+class ResidualTracking(gym.Wrapper, gym.utils.RecordConstructorArgs):
+    """Training view of an estimator-wrapped ImitateVideo env (``control="position"`` or
+    ``"velocity"``): observations are `TrackerFeatures`, actions in [-1, 1] are residuals
+    added (times ``residual_scale``) to the scripted controller's normalised action for
+    that control mode (holding the start pose until the estimate moves if
+    ``hold_until_moving``). The reward is the env's
     times ``reward_scale`` (its truth stays in the reward and in ``info``, never in
     observations).
     """
 
     def __init__(self, env: gym.Env, residual_scale: float = 0.5, reward_scale: float = 1.0,
                  hold_until_moving: bool = True) -> None:
-        super().__init__(env)
+        gym.utils.RecordConstructorArgs.__init__(self, residual_scale=residual_scale,
+                                                 reward_scale=reward_scale,
+                                                 hold_until_moving=hold_until_moving)
+        gym.Wrapper.__init__(self, env)
         if not isinstance(env.observation_space, spaces.Dict) or (
                 "estimate" not in env.observation_space.spaces):
             raise TypeError("ResidualTracking needs an estimator wrapper's obs['estimate'] "
@@ -137,6 +147,15 @@ class ResidualTracking(gym.Wrapper):
         self._obs, reward, terminated, truncated, info = self.env.step(a)
         features = self.residual.features(self._obs)
         return features, self.reward_scale * float(reward), terminated, truncated, info
+
+
+def checkpoint_control(checkpoint: str | Path = DEFAULT_CHECKPOINT) -> str:
+    """The control mode a checkpoint drives (its metadata's ``control``); "position" when
+    there is no checkpoint yet (`LearnedController` then says what is missing)."""
+    meta_path = Path(checkpoint).with_suffix(".json")
+    if not meta_path.is_file():
+        return "position"
+    return str(json.loads(meta_path.read_text())["control"])
 
 
 def load_policy(path: str | Path, metadata: dict[str, Any]) -> Any:
@@ -165,7 +184,8 @@ def load_policy(path: str | Path, metadata: dict[str, Any]) -> Any:
 
 class LearnedController:
     """The trained residual policy as a controller: ``reset()``, ``__call__(obs) ->
-    action``, for an estimator-wrapped env with ``control="position"``.
+    action``, for an estimator-wrapped env with the control mode it was trained on
+    (``control`` in its metadata).
 
     Args:
         env: the wrapped env (for the joint ranges, fps and the servo's action scale).
@@ -183,8 +203,9 @@ class LearnedController:
             raise ValueError(f"{meta_path}: features_version "
                              f"{self.metadata.get('features_version')!r}, this code computes "
                              f"version {FEATURES_VERSION}; retrain the tracker")
-        if env.unwrapped.control != "position":
-            raise ValueError("LearnedController drives control='position' actuation; this "
+        control = self.metadata["control"]
+        if env.unwrapped.control != control:
+            raise ValueError(f"LearnedController drives control={control!r} actuation; this "
                              f"env has control={env.unwrapped.control!r}")
         self.residual = _Residual(env, float(self.metadata["residual_scale"]),
                                   bool(self.metadata["hold_until_moving"]))

@@ -7,7 +7,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import imimic_gym  # noqa: F401
-from imimic_gym.controllers import PositionController
+from imimic_gym.controllers import SCRIPTED_CONTROLLERS, PositionController
 from imimic_gym.controllers.learned import DEFAULT_CHECKPOINT, LearnedController, ResidualTracking
 from imimic_gym.rollout import run_episode
 from imimic_gym.wrappers import DONObservation
@@ -33,7 +33,7 @@ def test_the_shipped_policy_loads_with_its_metadata_and_tracks_the_servo() -> No
 def test_residual_training_env_passes_both_checkers() -> None:
     from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
-    env = ResidualTracking(don_env(n_frames=30, clip_seeds=(100,)))
+    env = ResidualTracking(don_env(n_frames=40, clip_seeds=(100,)))
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         warnings.filterwarnings("ignore", message=".*different from the unwrapped version")
@@ -43,11 +43,13 @@ def test_residual_training_env_passes_both_checkers() -> None:
     assert obs.dtype == np.float32 and env.observation_space.contains(obs)
 
 
-def test_the_untrained_residual_is_the_position_controller() -> None:
-    env = don_env(n_frames=30, clip_seeds=(100,))
-    wrapped = ResidualTracking(env)
+@pytest.mark.parametrize("control", ["position", "velocity"])
+def test_the_untrained_residual_is_the_scripted_controller(control: str) -> None:
+    env = don_env(control=control, n_frames=30, clip_seeds=(100,))
+    reference = run_episode(env, SCRIPTED_CONTROLLERS[control](env, hold_until_moving=True),
+                            seed=0)
+    wrapped = ResidualTracking(env, hold_until_moving=True)
     wrapped.reset(seed=0)
-    reference = run_episode(env, PositionController(env), seed=0)
     robot = [wrapped.unwrapped.data.qpos.copy()]
     for _ in range(29):
         wrapped.step(np.zeros(1, dtype=np.float32))
@@ -58,7 +60,8 @@ def test_the_untrained_residual_is_the_position_controller() -> None:
 def test_learned_controller_refuses_what_it_cannot_drive(tmp_path) -> None:
     with pytest.raises(FileNotFoundError, match=r"missing\.pt"):
         LearnedController(don_env(n_frames=10), tmp_path / "missing.pt")
-    with pytest.raises(ValueError, match="drives control='position'"):
-        LearnedController(don_env(control="velocity", n_frames=10))
+    with pytest.raises(ValueError, match=r"drives control='[a-z]+' actuation; this env "
+                                         r"has control='torque'"):
+        LearnedController(don_env(control="torque", n_frames=10))
     with pytest.raises(TypeError, match="obs\\['estimate'\\]"):
         ResidualTracking(gym.make("ImitateVideo-v0", n_frames=10))

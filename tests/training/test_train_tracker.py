@@ -28,7 +28,7 @@ def test_a_tiny_training_run_writes_a_policy_that_loads_and_tracks(tmp_path) -> 
     assert meta["total_timesteps"] == 80
     assert all(np.isfinite(v) for v in meta["val_metrics"].values())
     assert set(meta["val_metrics"]) == {f"{s}/{c}_rmse_deg" for s in ("exp2-servo", "default")
-                                        for c in ("learned", "position")}
+                                        for c in ("learned", "scripted")}
     assert list((tmp_path / "runs").iterdir())  # TensorBoard events
 
     env = DONObservation(gym.make("ImitateVideo-v0", scenario="exp2-servo", n_frames=20,
