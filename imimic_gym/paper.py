@@ -3,7 +3,8 @@ our numbers beside what the paper states (`imimic eval --paper`)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any
 
 from imimic_gym.suite import RunConfig
@@ -22,15 +23,38 @@ class PaperExperiment:
     estimator: str
     paper_says: str
     note: str = ""
+    compare: Callable[[dict[str, Any]], str] = field(default=lambda mean: "-")
+
+
+def _eta_in(low: float, high: float) -> Callable[[dict[str, Any]], str]:
+    def compare(mean: dict[str, Any]) -> str:
+        eta = mean["mean_trust"]
+        inside = "inside" if low <= eta <= high else "outside"
+        return f"eta {eta:.2f}, {inside} the paper's {low}-{high}"
+
+    return compare
+
+
+def _fails(mean: dict[str, Any]) -> str:
+    return ("fails here too (RMSE over 20 deg)" if mean["rmse_deg"] > 20
+            else "tracks where the paper failed")
+
+
+def _near_perfect(mean: dict[str, Any]) -> str:
+    return "near perfect (RMSE at most 4 deg)" if mean["rmse_deg"] <= 4 else "not near perfect"
 
 
 PAPER_EXPERIMENTS = (
     PaperExperiment("exp1", "exp1-noisy-fast", "don",
-                    "DON failed: fast random motion with body sway"),
-    PaperExperiment("exp2", "exp2-servo", "don", "servo arm copied near perfectly"),
-    PaperExperiment("exp3 none", "exp3-forearm-none", "don", "tracked, eta 0.9-1"),
-    PaperExperiment("exp3 low", "exp3-forearm-low", "don", "tracked, eta 0.5-0.7"),
-    PaperExperiment("exp3 high", "exp3-forearm-high", "don", "tracked, eta 0.3-0.4"),
+                    "DON failed: fast random motion with body sway", compare=_fails),
+    PaperExperiment("exp2", "exp2-servo", "don", "servo arm copied near perfectly",
+                    compare=_near_perfect),
+    PaperExperiment("exp3 none", "exp3-forearm-none", "don", "tracked, eta 0.9-1",
+                    compare=_eta_in(0.9, 1.0)),
+    PaperExperiment("exp3 low", "exp3-forearm-low", "don", "tracked, eta 0.5-0.7",
+                    compare=_eta_in(0.5, 0.7)),
+    PaperExperiment("exp3 high", "exp3-forearm-high", "don", "tracked, eta 0.3-0.4",
+                    compare=_eta_in(0.3, 0.4)),
     PaperExperiment("exp4", "exp4-hand", "oracle", "forearm, thumb, index finger tracked",
                     note="DON follows one link so far: the true angles stand in"),
 )
@@ -58,7 +82,7 @@ def paper_table(results: list[dict[str, Any]]) -> str:
     """Markdown: one row per experiment and controller, our figures beside the paper's."""
     by_key = {(r["scenario"], r["controller"]): r for r in results}
     lines = ["| experiment | scenario | estimator | controller | RMSE (deg) | lag (frames) | "
-             "mean eta | paper | note |", "|" + "---|" * 9]
+             "mean eta | paper | here | note |", "|" + "---|" * 10]
     for experiment in PAPER_EXPERIMENTS:
         for (scenario, controller), result in by_key.items():
             if scenario != experiment.scenario:
@@ -67,5 +91,6 @@ def paper_table(results: list[dict[str, Any]]) -> str:
             eta = "-" if mean["mean_trust"] is None else f"{mean['mean_trust']:.2f}"
             lines.append(f"| {experiment.name} | `{scenario}` | {result['estimator']} | "
                          f"{controller} | {mean['rmse_deg']:.2f} | {mean['lag_frames']:.1f} | "
-                         f"{eta} | {experiment.paper_says} | {experiment.note} |")
+                         f"{eta} | {experiment.paper_says} | {experiment.compare(mean)} | "
+                         f"{experiment.note} |")
     return "\n".join(lines)

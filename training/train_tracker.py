@@ -62,6 +62,8 @@ class Args:
     reward_balance: float = 1.0
     """each scenario's reward is divided by the position controller's mean squared error
     there to this power: 1 weighs scenarios by relative improvement, 0 by raw error"""
+    history: int = 0
+    """extra frames of estimate history in the policy's features (TrackerFeatures)"""
     hold_until_moving: bool = True
     """the position controller under the residual holds the start pose until DON moves"""
     net_arch: tuple[int, ...] = (64, 64)
@@ -136,7 +138,7 @@ def make_env(scenario: str, seeds: tuple[int, ...], args: Args,
     env = gym.make("ImitateVideo-v0", scenario=scenario, control=args.control,
                    clip_seeds=seeds, **kwargs)
     return ResidualTracking(DONObservation(env, keep_frame=False), args.residual_scale,
-                            reward_scale, args.hold_until_moving)
+                            reward_scale, args.hold_until_moving, args.history)
 
 
 def reward_scales(args: Args, seeds: tuple[int, ...]) -> dict[str, float]:
@@ -278,6 +280,7 @@ def main() -> None:
         "residual_scale": args.residual_scale,
         "reward_scales": scales,
         "hold_until_moving": args.hold_until_moving,
+        "history_frames": args.history,
         "control": args.control,
         "estimator": "don",
         "scenarios": list(args.scenarios),
