@@ -325,20 +325,23 @@ def build_parser() -> argparse.ArgumentParser:
                           choices=names,
                           help="one or more scenarios (default: %(default)s; the estimators "
                                "follow one moving link so far)")
+    from imimic_gym.suite import CONTROLLERS
+    from imimic_gym.suite import ESTIMATORS as SUITE_ESTIMATORS
+
     evaluate.add_argument("--estimator", nargs="+", default=["don"],
-                          choices=("oracle", "don", "mog2", "camshift"),
+                          choices=tuple(SUITE_ESTIMATORS),
                           help="default: %(default)s; oracle (the true angles) only with "
                                "--controller")
     evaluate.add_argument("--episodes", type=int, default=3, help="clips per scenario")
     evaluate.add_argument("--first-seed", type=int, default=1000,
                           help="first held-out clip seed (default: %(default)s)")
     evaluate.add_argument("--json", default=None, help="also write the results to this file")
-    from imimic_gym.suite import CONTROLLERS
-
     evaluate.add_argument("--controller", nargs="+", default=None, choices=tuple(CONTROLLERS),
                           help="run the tracking suite with these controllers: oracle (true "
                                "angles, the upper bound), position (the paper's servo), "
-                               "velocity, torque, learned (checkpoints/tracker.pt)")
+                               "velocity, torque, their -hold variants (keep the start pose "
+                               "until the estimate first moves), learned "
+                               "(checkpoints/tracker.pt)")
     evaluate.add_argument("--paper", action="store_true",
                           help="the paper's experiments 1-4 (DON + position and learned "
                                "controllers) as one table against the paper's statements")

@@ -1,3 +1,4 @@
+from imimic_gym.controllers.learned import LearnedController
 from imimic_gym.controllers.scripted import (
     SCRIPTED_CONTROLLERS,
     EstimateTarget,
@@ -11,7 +12,8 @@ from imimic_gym.controllers.scripted import (
 )
 
 __all__ = [
-    "SCRIPTED_CONTROLLERS", "EstimateTarget", "OracleController", "PDController",
+    "SCRIPTED_CONTROLLERS", "EstimateTarget", "LearnedController", "OracleController",
+    "PDController",
     "PositionController", "TargetSource", "TorqueController", "TruthTarget",
     "VelocityController",
 ]
