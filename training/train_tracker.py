@@ -18,6 +18,8 @@ import itertools
 import json
 import os
 import random
+import shlex
+import sys
 import time
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
@@ -292,6 +294,7 @@ def main() -> None:
         "stable_baselines3": stable_baselines3.__version__,
         "torch": torch.__version__,
         "run_name": args.run_name,
+        "command": shlex.join(["python", "training/train_tracker.py", *sys.argv[1:]]),
         "val_metrics": final,
         "args": {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(args).items()},
     }
