@@ -46,11 +46,11 @@ class Args:
     scenarios: tuple[str, ...] = ("exp2-servo", "exp3-forearm-none", "exp3-forearm-low",
                                   "exp3-forearm-high")
     """training scenarios, one vectorised env each (one-link: DON follows one link)"""
-    train_seeds: int = 16
+    train_seeds: int = 48
     """clip seeds 0 .. train_seeds-1 of every scenario are the training clips"""
     val_seeds: tuple[int, ...] = (900, 901)
     """clip seeds for the periodic evaluation (below 1000, never trained on)"""
-    total_timesteps: int = 100_000
+    total_timesteps: int = 120_000
     """env steps over all envs (one step = one video frame)"""
     eval_every: int = 20_000
     """env steps between periodic evaluations"""
@@ -61,10 +61,10 @@ class Args:
     position or velocity"""
     residual_scale: float = 0.5
     """the policy's action, times this, is added to the scripted controller's action"""
-    reward_balance: float = 1.0
+    reward_balance: float = 0.5
     """each scenario's reward is divided by the position controller's mean squared error
     there to this power: 1 weighs scenarios by relative improvement, 0 by raw error"""
-    history: int = 0
+    history: int = 6
     """extra frames of estimate history in the policy's features (TrackerFeatures)"""
     hold_until_moving: bool = True
     """the position controller under the residual holds the start pose until DON moves"""
