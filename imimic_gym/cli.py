@@ -136,8 +136,11 @@ def cmd_eval(args: argparse.Namespace) -> int:
     results = []
     for scenario in args.scenario:
         for estimator in args.estimator:
-            result = evaluate_estimator(scenario, estimator, episodes=args.episodes,
-                                        first_seed=args.first_seed)
+            try:
+                result = evaluate_estimator(scenario, estimator, episodes=args.episodes,
+                                            first_seed=args.first_seed)
+            except ValueError as error:  # e.g. a several-link scenario
+                raise SystemExit(f"imimic eval: {error}") from error
             results.append(result)
             mean = result["mean"]
             occluded = ""

@@ -69,3 +69,8 @@ def test_registries_refuse_unknown_names() -> None:
         RunConfig("exp2-servo", "sonar", "position", seeds=(0,))
     with pytest.raises(ValueError, match="unknown scenario 'mars'"):
         RunConfig("mars", "don", "position", seeds=(0,))
+
+
+def test_estimator_only_eval_refuses_several_links_by_name() -> None:
+    with pytest.raises(SystemExit, match="one moving link so far; 'chain-2' has 2"):
+        main(["eval", "--scenario", "chain-2", "--episodes", "1"])
