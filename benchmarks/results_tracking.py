@@ -62,7 +62,7 @@ RMS third derivative; recovery is the time from the end of an occlusion until ev
 is within 5 degrees again (a lower bound when it never gets there). The `-hold` variants
 keep the start pose until DON's estimate first moves (DON's first guess is the middle of
 the joint range while the robot starts at the arm's pose). `learned` is the shipped
-policy (`checkpoints/tracker.pt`): {meta['algorithm'].upper()}, a residual on {meta['control']}{'-hold' if meta['hold_until_moving'] else ''}, trained {meta['total_timesteps']} steps in {meta['train_seconds']:.0f} s with {meta['torch_threads']} torch thread on this machine (shared with other jobs), on scenarios {', '.join(meta['scenarios'])}, clip seeds {meta['train_seeds'][0]}-{meta['train_seeds'][-1]}, stable-baselines3 {meta['stable_baselines3']}; command: `.venv/bin/{meta.get('command', 'python training/train_tracker.py')}`.
+policy (`checkpoints/tracker.pt`): {meta['algorithm'].upper()}, a residual on {meta['control']}{'-hold' if meta['hold_until_moving'] else ''}, trained {meta['total_timesteps']} steps in {meta['train_seconds']:.0f} s with {meta['torch_threads']} torch thread on this machine (shared with other jobs), on scenarios {', '.join(meta['scenarios'])}, clip seeds {meta['train_seeds'][0]}-{meta['train_seeds'][-1]}, stable-baselines3 {meta['stable_baselines3']}; command: `.venv/bin/{meta.get('command', 'python training/train_tracker.py')}`{' (its output then copied to `checkpoints/`)' if '--out' in meta.get('command', '') else ''}.
 
 {table(["scenario", "controller", "RMSE (deg)", "max (deg)", "lag (frames)", "jerk (deg/s^3)",
         "recovery (s)", "mean eta"], rows)}
@@ -93,7 +93,9 @@ Reading the tables:
 - DON's first guess, before the arm has moved, is the middle of the joint range; the
   plain scripted controllers drive the robot there and back, which is most of their
   error on the servo. Holding the start pose until the estimate moves removes it, and
-  the learned policy, a residual on the holding servo, does not beat that on the servo.
+  the learned policy, a residual on the holding servo, does not beat that on the servo:
+  its margin over the plain controllers there comes from the clips whose start DON gets
+  badly wrong (on the paper table's three clips it is slightly behind the plain servo).
 - On `exp3-forearm-low` DON's estimate is the limit (its estimator-only RMSE is in the
   DON section above): every controller inherits its wrong stretches. The learned
   policy has the lowest RMSE and the lowest largest error there; how it gets them

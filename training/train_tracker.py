@@ -59,7 +59,7 @@ class Args:
     control: str = "position"
     """the robot's actuation, and so the scripted controller under the residual:
     position or velocity"""
-    residual_scale: float = 0.5
+    residual_scale: float = 1.0
     """the policy's action, times this, is added to the scripted controller's action"""
     reward_balance: float = 0.5
     """each scenario's reward is divided by the position controller's mean squared error
