@@ -43,3 +43,19 @@ def test_the_script_refuses_held_out_seeds() -> None:
                             capture_output=True, text=True, timeout=60)
     assert result.returncode == 2
     assert "below 1000" in result.stderr
+
+
+def test_ppo_is_selectable_and_its_policy_loads(tmp_path) -> None:
+    out = tmp_path / "ppo.pt"
+    subprocess.run([sys.executable, str(SCRIPT), "--algorithm", "ppo", "--scenarios",
+                    "exp2-servo", "--train-seeds", "1", "--val-seeds", "900", "--frames", "20",
+                    "--total-timesteps", "100", "--batch-size", "64", "--eval-every", "100",
+                    "--out", str(out), "--logdir", str(tmp_path / "runs")],
+                   check=True, timeout=300)
+    meta = json.loads(out.with_suffix(".json").read_text())
+    assert meta["algorithm"] == "ppo"
+    assert meta["total_timesteps"] == 512  # one PPO rollout of 512 steps on one env
+    env = DONObservation(gym.make("ImitateVideo-v0", scenario="exp2-servo", n_frames=20,
+                                  clip_seeds=(900,)), keep_frame=False)
+    metrics = run_episode(env, LearnedController(env, out), seed=0).metrics()
+    assert np.isfinite(metrics["rmse_deg"]) and metrics["rmse_deg"] < 40.0
