@@ -134,11 +134,20 @@ def cmd_clip(args: argparse.Namespace) -> int:
 def cmd_eval(args: argparse.Namespace) -> int:
     from imimic_gym.evaluation import evaluate_estimator
 
+    if args.paper or args.controller:
+        return _cmd_eval_suite(args)
+    if "oracle" in args.estimator:
+        raise SystemExit("imimic eval: the oracle estimator is the truth itself; score it "
+                         "with a controller (--controller ...) or use don, mog2, camshift")
     results = []
     for scenario in args.scenario:
         for estimator in args.estimator:
-            result = evaluate_estimator(scenario, estimator, episodes=args.episodes,
-                                        first_seed=args.first_seed, modality=args.modality)
+            try:
+                result = evaluate_estimator(scenario, estimator, episodes=args.episodes,
+                                            first_seed=args.first_seed,
+                                            modality=args.modality)
+            except ValueError as error:  # e.g. a several-link scenario
+                raise SystemExit(f"imimic eval: {error}") from error
             results.append(result)
             mean = result["mean"]
             occluded = ""
@@ -150,6 +159,70 @@ def cmd_eval(args: argparse.Namespace) -> int:
                   f"settled {mean['rmse_deg_settled']:6.2f} deg, lag "
                   f"{mean['lag_frames']:5.1f} frames, eta {mean['mean_trust']:.2f}{occluded}",
                   flush=True)
+    _save_json(args.json, results)
+    return 0
+
+
+def _suite_table(results: list[dict]) -> str:
+    """Markdown table of the suite's means, one row per scenario x estimator x controller."""
+
+    def shown(value: float | None, digits: int) -> str:
+        return "-" if value is None else f"{value:.{digits}f}"
+
+    lines = ["| scenario | estimator | controller | RMSE (deg) | max (deg) | lag (frames) | "
+             "jerk (deg/s^3) | recovery (s) | mean eta | seeds |", "|" + "---|" * 10]
+    for r in results:
+        m = r["mean"]
+        lines.append(
+            f"| `{r['scenario']}` | {r['estimator']} | {r['controller']} | "
+            f"{m['rmse_deg']:.2f} | {m['max_error_deg']:.1f} | {m['lag_frames']:.1f} | "
+            f"{shown(m['jerk_deg_s3'], 0)} | {shown(m['recovery_s'], 2)} | "
+            f"{shown(m['mean_trust'], 2)} | {r['episodes']} |")
+    return "\n".join(lines)
+
+
+def _cmd_eval_suite(args: argparse.Namespace) -> int:
+    """`imimic eval --controller ...` or `--paper`: the tracking suite."""
+    from imimic_gym.clips.scenarios import get_scenario
+    from imimic_gym.paper import paper_configs, paper_table
+    from imimic_gym.plots import plot_tracking
+    from imimic_gym.suite import RunConfig, run_suite
+
+    seeds = tuple(range(args.first_seed, args.first_seed + args.episodes))
+    if args.paper:
+        configs = paper_configs(seeds, args.frames)
+    else:
+        configs, skipped = [], []
+        for scenario in args.scenario:
+            one_link = get_scenario(scenario).n_links == 1
+            for controller in args.controller:
+                for estimator in args.estimator:
+                    if not one_link and (estimator != "oracle" or controller == "learned"):
+                        skipped.append(f"{scenario}/{estimator}/{controller}")
+                        continue
+                    configs.append(RunConfig(scenario, estimator, controller, seeds,
+                                             args.frames))
+                    if controller == "oracle":
+                        break  # the oracle controller ignores the estimate: one run is enough
+        if skipped:
+            print("skipped (the estimators and the learned policy follow one moving link so "
+                  "far; several-link scenarios run the oracle estimator): " + ", ".join(skipped))
+    out = Path(args.out)
+    (out / "plots").mkdir(parents=True, exist_ok=True)
+
+    def plot(config: RunConfig, trajectory) -> None:
+        name = f"{config.scenario}__{config.estimator}__{config.controller}"
+        plot_tracking(trajectory, out / "plots" / f"{name}.png",
+                      title=f"{config.scenario}, seed {config.seeds[0]}: {config.estimator} "
+                            f"+ {config.controller}")
+
+    results = run_suite(configs, num_envs=args.num_envs, on_trajectory=plot)
+    table = _suite_table(results)
+    if args.paper:
+        table = paper_table(results) + "\n\n" + table
+    print(table)
+    (out / "eval.md").write_text(table + "\n")
+    print(f"wrote {out / 'eval.md'} and {len(results)} plots in {out / 'plots'}")
     _save_json(args.json, results)
     return 0
 
@@ -367,23 +440,29 @@ def build_parser() -> argparse.ArgumentParser:
     clip.add_argument("--out", default="clips_out", help="output folder (default: %(default)s)")
     clip.set_defaults(func=cmd_clip)
 
-    from imimic_gym.clips.scenarios import SCENARIOS
-
-    one_link = [n for n in names if SCENARIOS[n].n_links == 1]
     evaluate = sub.add_parser(
-        "eval", help="score estimators against the truth on held-out clips",
-        description="Run each estimator over held-out clips (seeds from --first-seed) of each "
-                    "scenario and print the angle RMSE (all frames, and after 0.5 s of warm-up: "
-                    "frame differencing sees nothing before the arm moves), lag, mean trust "
-                    "factor, and for occluded frames the RMSE with DON's prediction layer off "
-                    "and on.",
+        "eval", help="score estimators, or estimator + controller pairs, on held-out clips",
+        description="Without --controller: run each estimator over held-out clips (seeds from "
+                    "--first-seed) of each scenario and print the angle RMSE (all frames, and "
+                    "after 0.5 s of warm-up: frame differencing sees nothing before the arm "
+                    "moves), lag, mean trust factor, and for occluded frames the RMSE with "
+                    "DON's prediction layer off and on. With --controller: the tracking suite, "
+                    "scenarios x estimators x controllers, each through a plain Gymnasium "
+                    "loop; prints a markdown table (RMSE, max error, lag, jerk, recovery after "
+                    "occlusion, mean eta), saves it and Fig. 4-style plots in --out. --paper "
+                    "runs the paper's experiments 1-4 against its statements.",
     )
     evaluate.add_argument("--scenario", nargs="+", default=["exp2-servo"],
-                          choices=one_link,
-                          help="one or more one-link scenarios (default: %(default)s)")
+                          choices=names,
+                          help="one or more scenarios (default: %(default)s; the estimators "
+                               "follow one moving link so far)")
+    from imimic_gym.suite import CONTROLLERS
+    from imimic_gym.suite import ESTIMATORS as SUITE_ESTIMATORS
+
     evaluate.add_argument("--estimator", nargs="+", default=["don"],
-                          choices=("don", "mog2", "camshift", "cnn"),
-                          help="default: %(default)s")
+                          choices=tuple(SUITE_ESTIMATORS),
+                          help="default: %(default)s; oracle (the true angles) only with "
+                               "--controller")
     evaluate.add_argument("--episodes", type=int, default=3, help="clips per scenario")
     evaluate.add_argument("--modality", default="rgb", choices=("rgb", "depth"),
                           help="the colour video, or the depth video as grey frames "
@@ -391,6 +470,23 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--first-seed", type=int, default=1000,
                           help="first held-out clip seed (default: %(default)s)")
     evaluate.add_argument("--json", default=None, help="also write the results to this file")
+    evaluate.add_argument("--controller", nargs="+", default=None, choices=tuple(CONTROLLERS),
+                          help="run the tracking suite with these controllers: oracle (true "
+                               "angles, the upper bound), position (the paper's servo), "
+                               "velocity, torque, their -hold variants (keep the start pose "
+                               "until the estimate first moves), learned "
+                               "(checkpoints/tracker.pt)")
+    evaluate.add_argument("--paper", action="store_true",
+                          help="the paper's experiments 1-4 (DON + position and learned "
+                               "controllers) as one table against the paper's statements")
+    evaluate.add_argument("--num-envs", type=int, default=1,
+                          help="clips stepped at once through gym.make_vec, one process each "
+                               "(default: %(default)s)")
+    evaluate.add_argument("--frames", type=int, default=None,
+                          help="suite only: clip length in frames (default: the scenario's)")
+    evaluate.add_argument("--out", default="eval_out",
+                          help="suite only: folder for eval.md and plots/ (default: "
+                               "%(default)s)")
     evaluate.set_defaults(func=cmd_eval)
 
     scen = sub.add_parser("scenarios", help="list the named scenarios and their settings")

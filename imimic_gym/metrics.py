@@ -7,7 +7,13 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["angle_rmse_deg", "lag_frames", "max_error_deg", "pcp", "wrap_angle"]
+__all__ = [
+    "OCCLUDED", "RECOVERED_DEG", "angle_rmse_deg", "jerk_rms", "lag_frames", "max_error_deg",
+    "pcp", "recovery_time_s", "wrap_angle",
+]
+
+OCCLUDED = 0.1  # a frame counts as occluded when over 10% of the moving links is hidden
+RECOVERED_DEG = 5.0  # tracking has recovered once every joint is back within this (deg)
 
 
 def wrap_angle(angle: np.ndarray) -> np.ndarray:
@@ -75,3 +81,37 @@ def pcp(predicted: np.ndarray, truth: np.ndarray, limb: tuple[int, int],
     length = np.linalg.norm(truth[:, a] - truth[:, b], axis=1)
     error = np.linalg.norm(predicted[:, [a, b]] - truth[:, [a, b]], axis=2)
     return float(np.mean(np.all(error <= threshold * length[:, None], axis=1)))
+
+
+def jerk_rms(angles: np.ndarray, fps: float) -> float:
+    """RMS jerk of a joint trajectory (T,) or (T, n) rad sampled at ``fps``: the third
+    finite difference times fps^3, over all joints, in deg/s^3. Fewer than 4 samples: 0.
+
+    A tracker that follows a noisy estimate shakes the robot; this is how much.
+    """
+    a = np.asarray(angles, dtype=np.float64).reshape(len(angles), -1)
+    if len(a) < 4:
+        return 0.0
+    third = np.diff(np.unwrap(a, axis=0), n=3, axis=0) * float(fps) ** 3
+    return float(np.degrees(np.sqrt(np.mean(third**2))))
+
+
+def recovery_time_s(robot: np.ndarray, truth: np.ndarray, occlusion: np.ndarray, fps: float,
+                    threshold_deg: float = RECOVERED_DEG) -> float | None:
+    """Mean time (s) from the end of each occluded stretch (occlusion (T,) over `OCCLUDED`)
+    until every joint's error is within ``threshold_deg`` again.
+
+    A stretch after which tracking never recovers counts the rest of the clip (the value
+    is then a lower bound). None when no occluded stretch ends inside the clip.
+    """
+    occluded = np.asarray(occlusion) > OCCLUDED
+    ends = np.flatnonzero(occluded[:-1] & ~occluded[1:]) + 1
+    if len(ends) == 0:
+        return None
+    error = np.degrees(np.abs(wrap_angle(np.asarray(robot) - np.asarray(truth))))
+    within = error.reshape(len(error), -1).max(axis=1) <= threshold_deg
+    times = []
+    for end in ends:
+        back = np.flatnonzero(within[end:])
+        times.append((back[0] if len(back) else len(within) - end) / float(fps))
+    return float(np.mean(times))

@@ -1,7 +1,14 @@
 import numpy as np
 import pytest
 
-from imimic_gym.metrics import angle_rmse_deg, lag_frames, max_error_deg, wrap_angle
+from imimic_gym.metrics import (
+    angle_rmse_deg,
+    jerk_rms,
+    lag_frames,
+    max_error_deg,
+    recovery_time_s,
+    wrap_angle,
+)
 
 
 def test_wrap_angle_takes_the_short_way_round() -> None:
@@ -41,3 +48,22 @@ def test_pcp_counts_a_limb_correct_only_when_both_ends_are_within_half_its_lengt
     predicted[3, 2] += [0.1, 0]
     assert pcp(predicted, truth, (1, 2)) == 0.75
     assert pcp(truth[:0], truth[:0], (0, 1)) == 0.0
+
+
+def test_jerk_of_a_cubic_is_its_third_derivative() -> None:
+    fps = 30.0
+    t = np.arange(40) / fps
+    angles = np.radians(2.0) * t**3  # third derivative: 12 deg/s^3
+    assert jerk_rms(angles, fps) == pytest.approx(12.0, rel=1e-6)
+    assert jerk_rms(angles[:3], fps) == 0.0
+
+
+def test_recovery_counts_frames_until_the_error_is_small_again() -> None:
+    fps = 10.0
+    occlusion = np.array([0, 0.5, 0.5, 0, 0, 0, 0, 0, 0, 0], dtype=float)
+    truth = np.zeros(10)
+    robot = np.radians([0, 20, 20, 20, 10, 4, 0, 0, 0, 0])  # occlusion ends at frame 3
+    assert recovery_time_s(robot, truth, occlusion, fps) == pytest.approx(0.2)
+    assert recovery_time_s(robot, truth, np.zeros(10), fps) is None
+    never = np.radians([0, 20, 20, 20, 20, 20, 20, 20, 20, 20])
+    assert recovery_time_s(never, truth, occlusion, fps) == pytest.approx(0.7)

@@ -1,8 +1,10 @@
-"""Scripted controllers: a PD tracker of any target-angle source, and the oracle.
+"""Scripted controllers: a PD tracker of any target-angle source, the oracle, and the
+three estimate-driven trackers of the evaluation suite (position, velocity, torque).
 
 A controller has ``reset()`` and ``__call__(obs) -> action``. It reads the robot state
-from ``obs["qpos"]``/``obs["qvel"]`` and its targets from a `TargetSource`; it never looks
-at pixels (estimator wrappers turn pixels into targets upstream).
+from ``obs["qpos"]``/``obs["qvel"]`` and its targets from a `TargetSource` or from
+``obs["estimate"]``; it never looks at pixels (estimator wrappers turn pixels into
+targets upstream).
 """
 
 from __future__ import annotations
@@ -15,7 +17,11 @@ import numpy as np
 
 from imimic_gym.metrics import wrap_angle
 
-__all__ = ["EstimateTarget", "OracleController", "PDController", "TargetSource", "TruthTarget"]
+__all__ = [
+    "SCRIPTED_CONTROLLERS", "EstimateTarget", "OracleController", "PDController",
+    "PositionController", "TargetSource", "TorqueController", "TruthTarget",
+    "VelocityController",
+]
 
 
 class TargetSource(Protocol):
@@ -49,22 +55,50 @@ class EstimateTarget:
 
     The estimate describes the frame the env shows; the reward compares the robot with
     the next one. Leading the angle by omega / fps (one frame) removes that frame of lag.
+
+    ``hold_until_moving``: a frame-differencing estimator knows nothing until the arm
+    moves, and meanwhile repeats its first guess (DON: the middle of the joint range),
+    while the robot starts where the arm is. Trusting that guess drives the robot away
+    and back. With the option on, the target is the robot's first observed pose (at
+    rest) until the estimate first changes; everything it uses is in the observation.
     """
 
-    def __init__(self, env: gym.Env, lead_frames: float = 1.0) -> None:
+    def __init__(self, env: gym.Env, lead_frames: float = 1.0,
+                 hold_until_moving: bool = False) -> None:
         from imimic_gym.wrappers.estimator import estimate_fields
 
         inner = env.unwrapped
         self.fields = estimate_fields(inner.arm.n_links)
         self.lead_s = lead_frames / float(inner.clip.fps)
+        self.hold_until_moving = hold_until_moving
+        self.reset()
 
     def reset(self) -> None:
-        """Stateless: everything it needs is in the observation."""
+        """Forget the episode's first estimate and pose."""
+        self._first: np.ndarray | None = None
+        self._start: np.ndarray | None = None
+        self._holding = self.hold_until_moving
+
+    def reference(self, obs: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The led target: angles (rad), omega (rad/s) and alpha (rad/s^2), each (n,).
+
+        The angle is led by omega * lead and omega by alpha * lead, so the three stay
+        consistent with one another for the feed-forward controllers.
+        """
+        estimate = obs["estimate"]
+        angles, omega, alpha = (estimate[self.fields[k]].astype(np.float64)
+                                for k in ("angles", "omega", "alpha"))
+        if self._holding:
+            if self._first is None:
+                self._first = angles
+                self._start = np.asarray(obs["qpos"], dtype=np.float64).copy()
+            if np.array_equal(angles, self._first):
+                return self._start.copy(), np.zeros_like(omega), np.zeros_like(alpha)
+            self._holding = False
+        return angles + self.lead_s * omega, omega + self.lead_s * alpha, alpha
 
     def __call__(self, obs: dict[str, Any]) -> np.ndarray:
-        estimate = obs["estimate"]
-        angles = estimate[self.fields["angles"]].astype(np.float64)
-        return angles + self.lead_s * estimate[self.fields["omega"]]
+        return self.reference(obs)[0]
 
 
 class PDController:
@@ -129,3 +163,80 @@ class PDController:
 def OracleController(env: gym.Env) -> PDController:
     """A PD controller fed the true angles one frame ahead: the upper bound."""
     return PDController(env, TruthTarget(env))
+
+
+def _require_control(env: gym.Env, control: str, name: str) -> None:
+    if env.unwrapped.control != control:
+        raise ValueError(f"{name} drives control={control!r} actuation; this env has "
+                         f"control={env.unwrapped.control!r}")
+
+
+def PositionController(env: gym.Env, lead_frames: float = 1.0,
+                       hold_until_moving: bool = False) -> PDController:
+    """The paper's setting: the servo's target is the estimated angle (led by one frame of
+    the estimated omega), and the servo closes the loop itself. Needs
+    ``control="position"`` and an estimator wrapper's ``obs["estimate"]``;
+    ``hold_until_moving`` as in `EstimateTarget`."""
+    _require_control(env, "position", "PositionController")
+    return PDController(env, EstimateTarget(env, lead_frames, hold_until_moving))
+
+
+class VelocityController(PDController):
+    """Velocity feed-forward plus a position correction (needs ``control="velocity"``):
+    command = omega_est + kp * wrap(q_est - q), with kp = 2 pi ``bandwidth_hz`` (1/s).
+
+    The estimated omega moves the robot with the arm at once; the position term only
+    removes what the feed-forward got wrong, so the loop needs less gain (less noise
+    amplified) than `PDController`'s pure position feedback for the same lag. The angle
+    is not led by default (``lead_frames=0``): the feed-forward already carries the robot
+    into the next frame, and leading the angle as well counts that frame twice (the robot
+    then runs a frame ahead of the arm).
+    """
+
+    def __init__(self, env: gym.Env, bandwidth_hz: float = 4.0, lead_frames: float = 0.0,
+                 hold_until_moving: bool = False) -> None:
+        _require_control(env, "velocity", "VelocityController")
+        self.reference = EstimateTarget(env, lead_frames, hold_until_moving)
+        super().__init__(env, self.reference, bandwidth_hz=bandwidth_hz)
+
+    def __call__(self, obs: dict[str, Any]) -> np.ndarray:
+        angles, omega, _ = self.reference.reference(obs)
+        command = omega + self.kp * wrap_angle(angles - obs["qpos"])
+        return self.env.command_to_action(command)
+
+
+class TorqueController(PDController):
+    """Computed torque (needs ``control="torque"``): the estimated acceleration through
+    the robot model's inverse dynamics, plus PD on the estimated angle and omega.
+
+    qacc = alpha_est + kp * wrap(q_est - q) + kd * (omega_est - qvel), and
+    tau = mj_inverse(q, qvel, qacc) = M(q) qacc + bias(q, qvel); kp = omega^2 and
+    kd = 2 omega (critically damped, omega = 2 pi ``bandwidth_hz``). DON's alpha is a
+    second difference of its angles and noisy, so it enters scaled by
+    ``alpha_feedforward`` (1 = the textbook computed-torque law). Not led by default, for
+    the reason `VelocityController` gives.
+    """
+
+    def __init__(self, env: gym.Env, bandwidth_hz: float = 4.0, lead_frames: float = 0.0,
+                 alpha_feedforward: float = 1.0, hold_until_moving: bool = False) -> None:
+        _require_control(env, "torque", "TorqueController")
+        self.reference = EstimateTarget(env, lead_frames, hold_until_moving)
+        self.alpha_feedforward = alpha_feedforward
+        super().__init__(env, self.reference, bandwidth_hz=bandwidth_hz)
+
+    def __call__(self, obs: dict[str, Any]) -> np.ndarray:
+        angles, omega, alpha = self.reference.reference(obs)
+        qacc = (self.alpha_feedforward * alpha + self.kp * wrap_angle(angles - obs["qpos"])
+                + self.kd * (omega - obs["qvel"]))
+        self._data.qpos[:], self._data.qvel[:] = obs["qpos"], obs["qvel"]
+        self._data.qacc[:] = qacc
+        mujoco.mj_inverse(self._model, self._data)
+        return self.env.command_to_action(self._data.qfrc_inverse.copy())
+
+
+SCRIPTED_CONTROLLERS = {
+    "position": PositionController,
+    "velocity": VelocityController,
+    "torque": TorqueController,
+}
+"""Each estimate-driven scripted controller by name, with the control mode it needs."""

@@ -2,11 +2,12 @@ from imimic_gym.wrappers.estimator import (
     CNNObservation,
     DONObservation,
     EstimatorObservation,
+    TruthObservation,
     draw_estimate,
     estimate_fields,
 )
 
 __all__ = [
-    "CNNObservation", "DONObservation", "EstimatorObservation", "draw_estimate",
-    "estimate_fields",
+    "CNNObservation", "DONObservation", "EstimatorObservation", "TruthObservation",
+    "draw_estimate", "estimate_fields",
 ]

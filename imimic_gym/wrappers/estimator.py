@@ -17,8 +17,8 @@ from imimic_gym.estimators.don import DON
 from imimic_gym.estimators.types import Estimate, Estimator
 
 __all__ = [
-    "CNNObservation", "DONObservation", "EstimatorObservation", "draw_estimate",
-    "estimate_fields",
+    "CNNObservation", "DONObservation", "EstimatorObservation", "TruthObservation",
+    "draw_estimate", "estimate_fields",
 ]
 
 # Bounds of the estimate vector, so the space is finite (checkers warn on infinite ones)
@@ -175,3 +175,32 @@ class CNNObservation(EstimatorObservation):
             robot=inner.model, refine=refine,
         )
         super().__init__(env, estimator, keep_frame=keep_frame)
+
+
+class _TruthReader:
+    """The oracle "estimator": the clip's true angles, omega and alpha at the frame the
+    env shows, trust 1, torque 0. It reads the env, not the frame: evaluation only."""
+
+    def __init__(self, env: gym.Env) -> None:
+        self.env = env.unwrapped
+
+    def reset(self) -> None:
+        """Stateless: the env's ``frame_index`` says where the clip is."""
+
+    def update(self, frame: np.ndarray) -> Estimate:
+        truth, i = self.env.clip.truth, self.env.frame_index
+        return Estimate(angles=truth.angles[i], omega=truth.angular_velocity[i],
+                        alpha=truth.angular_acceleration[i],
+                        torque=np.zeros(truth.angles.shape[1]), trust=1.0)
+
+
+class TruthObservation(EstimatorObservation):
+    """`EstimatorObservation` with a perfect, zero-latency estimator: the clip's truth.
+
+    The evaluation suite's ``oracle`` estimator, so any controller can be scored on what
+    it would do with perfect vision. Truth in an observation: never train a policy on it.
+    """
+
+    def __init__(self, env: gym.Env, keep_frame: bool = True) -> None:
+        gym.utils.RecordConstructorArgs.__init__(self, keep_frame=keep_frame)
+        super().__init__(env, _TruthReader(env), keep_frame=keep_frame)

@@ -3,7 +3,14 @@ import numpy as np
 import pytest
 
 import imimic_gym  # noqa: F401
-from imimic_gym.controllers import OracleController, PDController, TruthTarget
+from imimic_gym.controllers import (
+    SCRIPTED_CONTROLLERS,
+    OracleController,
+    PDController,
+    PositionController,
+    TorqueController,
+    TruthTarget,
+)
 from imimic_gym.rollout import run_episode
 
 
@@ -37,3 +44,51 @@ def test_doing_nothing_is_much_worse_than_the_oracle() -> None:
     still = run_episode(env, lambda obs: np.zeros(1, dtype=np.float32), seed=0).metrics()
     oracle = run_episode(env, OracleController(env), seed=0).metrics()
     assert still["rmse_deg"] > 5 * oracle["rmse_deg"]
+
+
+def truth_env(control: str, **kwargs) -> gym.Env:
+    from imimic_gym.wrappers import TruthObservation
+
+    return TruthObservation(gym.make("ImitateVideo-v0", scenario="exp2-servo", control=control,
+                                     n_frames=90, **kwargs), keep_frame=False)
+
+
+@pytest.mark.parametrize(("control", "bound_deg"), [("position", 1.5), ("velocity", 0.6),
+                                                    ("torque", 0.6)])
+def test_each_scripted_controller_tracks_a_known_target(control: str, bound_deg: float) -> None:
+    # The estimate is the clip's exact angle, omega and alpha: what is left is the
+    # controller's own error. The feed-forward controllers need no lead to keep up.
+    env = truth_env(control)
+    metrics = run_episode(env, SCRIPTED_CONTROLLERS[control](env), seed=0).metrics()
+    assert metrics["rmse_deg"] < bound_deg
+    assert abs(metrics["lag_frames"]) <= 1
+
+
+def test_holding_until_don_sees_the_arm_keeps_the_robot_on_the_servo() -> None:
+    # Clip 100: DON's first guess (the middle of the range) is 34 degrees off for four
+    # frames; the plain servo chases it, the holding one waits for DON to lock on.
+    from imimic_gym.wrappers import DONObservation
+
+    env = DONObservation(gym.make("ImitateVideo-v0", scenario="exp2-servo",
+                                  clip_seeds=(100,)), keep_frame=False)
+    plain = run_episode(env, PositionController(env), seed=0).metrics()
+    holding = run_episode(env, PositionController(env, hold_until_moving=True), seed=0)
+    assert holding.metrics()["rmse_deg"] < 2.5 < plain["rmse_deg"]
+    assert np.degrees(abs(holding.robot[3, 0] - holding.target[3, 0])) < 3.0
+    assert 0.0 < plain["mean_trust"] <= 1.0
+
+
+def test_computed_torque_uses_the_estimated_acceleration() -> None:
+    env = truth_env("torque")
+    with_alpha = run_episode(env, TorqueController(env), seed=0).metrics()
+    without = run_episode(env, TorqueController(env, alpha_feedforward=0.0), seed=0).metrics()
+    assert with_alpha["rmse_deg"] < 0.5 * without["rmse_deg"]
+
+
+@pytest.mark.parametrize("name", ["position", "velocity", "torque"])
+def test_a_controller_refuses_the_wrong_actuation(name: str) -> None:
+    other = "torque" if name != "torque" else "position"
+    env = truth_env(other)
+    with pytest.raises(ValueError, match=f"drives control='{name}' actuation; this env has "
+                                         f"control='{other}'"):
+        SCRIPTED_CONTROLLERS[name](env)

@@ -1,0 +1,233 @@
+"""A learned tracker: a stable-baselines3 policy that corrects a scripted controller.
+
+The policy sees only what a real deployment has: the robot's joint state, the
+estimator's output (angles, omega, alpha, trust, predicted), how the estimate changed
+since the last frame, and the time since the episode began. It never sees the truth.
+Its action is a residual on a scripted controller's action (`PositionController`'s servo
+target, or `VelocityController`'s velocity command), so an untrained policy (action 0)
+is exactly the scripted controller, and training only has to learn
+what the estimate gets wrong: that DON knows nothing until the arm moves (its first
+guess is the middle of the joint range while the robot starts at the true pose), that
+the estimate lags, and when a jumpy estimate is better not followed.
+
+``python training/train_tracker.py`` trains it; `LearnedController` loads the shipped
+policy (``checkpoints/tracker.pt`` and its ``tracker.json``) as a controller with the
+scripted controllers' interface.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from imimic_gym.controllers.scripted import SCRIPTED_CONTROLLERS
+from imimic_gym.metrics import wrap_angle
+
+__all__ = ["DEFAULT_CHECKPOINT", "LearnedController", "ResidualTracking", "TrackerFeatures",
+           "checkpoint_control", "load_policy"]
+
+DEFAULT_CHECKPOINT = Path(__file__).resolve().parents[2] / "checkpoints" / "tracker.pt"
+FEATURES_VERSION = 1
+TIME_HORIZON_S = 2.0  # the time feature saturates here: only the start needs a clock
+OMEGA_SCALE, ALPHA_SCALE = 2 * np.pi, 100.0  # rad/s and rad/s^2 that map to 1
+
+
+class TrackerFeatures:
+    """The policy's observation, computed from the wrapped env's observation.
+
+    ((8 + history) n + 3,) float32 in [-5, 5], angles normalised to the joint range (-1
+    and 1 at its ends): qpos, qvel / 2 pi, estimated angles, omega / 2 pi, alpha / 100,
+    the estimate minus qpos, the estimate's change since the last frame, the estimate's
+    total change since the episode began (zero until DON has seen the arm move), trust,
+    predicted, min(t, 2 s) / 2 s, and its change since each of the ``history`` frames
+    before the last (how a jump or a stall looks over a few frames). Stateful: call
+    ``reset()`` with the episode.
+    """
+
+    def __init__(self, env: gym.Env, history: int = 0) -> None:
+        from imimic_gym.wrappers.estimator import estimate_fields
+
+        inner = env.unwrapped
+        low, high = (np.asarray(r) for r in zip(*inner.arm.joint_ranges, strict=True))
+        self.mid, self.half = (low + high) / 2, (high - low) / 2
+        self.n = inner.arm.n_links
+        self.dt = 1.0 / float(inner.clip.fps)
+        self.fields = estimate_fields(self.n)
+        self.history = history
+        self.size = (8 + history) * self.n + 3
+        self.space = spaces.Box(-5.0, 5.0, shape=(self.size,), dtype=np.float32)
+        self.reset()
+
+    def reset(self) -> None:
+        self.first: np.ndarray | None = None
+        self.previous: np.ndarray | None = None
+        self.past: list[np.ndarray] = []
+        self.steps = 0
+
+    def __call__(self, obs: dict[str, Any]) -> np.ndarray:
+        estimate = np.asarray(obs["estimate"], dtype=np.float64)
+        angles = estimate[self.fields["angles"]]
+        if self.first is None:
+            self.first = self.previous = angles
+            self.past = [angles] * self.history
+        qpos = np.asarray(obs["qpos"], dtype=np.float64)
+        vector = np.concatenate([
+            (qpos - self.mid) / self.half,
+            np.asarray(obs["qvel"]) / OMEGA_SCALE,
+            (angles - self.mid) / self.half,
+            estimate[self.fields["omega"]] / OMEGA_SCALE,
+            estimate[self.fields["alpha"]] / ALPHA_SCALE,
+            wrap_angle(angles - qpos) / self.half,
+            wrap_angle(angles - self.previous) / self.half,
+            wrap_angle(angles - self.first) / self.half,
+            estimate[self.fields["trust"]],
+            estimate[self.fields["predicted"]],
+            [min(self.steps * self.dt, TIME_HORIZON_S) / TIME_HORIZON_S],
+            *(wrap_angle(angles - past) / self.half for past in self.past),
+        ])
+        if self.history:
+            self.past = [self.previous, *self.past[:-1]]
+        self.previous = angles
+        self.steps += 1
+        return np.clip(vector, -5.0, 5.0).astype(np.float32)
+
+
+class _Residual:
+    """The scripted controller's action (for the env's control mode) plus ``scale`` times
+    the policy's action."""
+
+    def __init__(self, env: gym.Env, scale: float, hold_until_moving: bool,
+                 history: int = 0) -> None:
+        control = env.unwrapped.control
+        if control not in ("position", "velocity"):
+            raise ValueError("the learned tracker corrects the position or velocity "
+                             f"controller; this env has control={control!r}")
+        self.base = SCRIPTED_CONTROLLERS[control](env, hold_until_moving=hold_until_moving)
+        self.features, self.scale = TrackerFeatures(env, history), scale
+
+    def reset(self) -> None:
+        self.base.reset()
+        self.features.reset()
+
+    def action(self, obs: dict[str, Any], residual: np.ndarray) -> np.ndarray:
+        base = self.base(obs).astype(np.float64)
+        return np.clip(base + self.scale * np.asarray(residual), -1.0, 1.0).astype(np.float32)
+
+
+class ResidualTracking(gym.Wrapper, gym.utils.RecordConstructorArgs):
+    """Training view of an estimator-wrapped ImitateVideo env (``control="position"`` or
+    ``"velocity"``): observations are `TrackerFeatures`, actions in [-1, 1] are residuals
+    added (times ``residual_scale``) to the scripted controller's normalised action for
+    that control mode (holding the start pose until the estimate moves if
+    ``hold_until_moving``). The reward is the env's
+    times ``reward_scale`` (its truth stays in the reward and in ``info``, never in
+    observations).
+    """
+
+    def __init__(self, env: gym.Env, residual_scale: float = 0.5, reward_scale: float = 1.0,
+                 hold_until_moving: bool = True, history: int = 0) -> None:
+        gym.utils.RecordConstructorArgs.__init__(self, residual_scale=residual_scale,
+                                                 reward_scale=reward_scale,
+                                                 hold_until_moving=hold_until_moving,
+                                                 history=history)
+        gym.Wrapper.__init__(self, env)
+        if not isinstance(env.observation_space, spaces.Dict) or (
+                "estimate" not in env.observation_space.spaces):
+            raise TypeError("ResidualTracking needs an estimator wrapper's obs['estimate'] "
+                            f"(e.g. DONObservation), got {env.observation_space}")
+        self.residual = _Residual(env, residual_scale, hold_until_moving, history)
+        self.reward_scale = reward_scale
+        self.observation_space = self.residual.features.space
+        self.action_space = spaces.Box(-1.0, 1.0, shape=env.action_space.shape, dtype=np.float32)
+        self._obs: dict[str, Any] | None = None
+
+    def reset(self, **kwargs: Any) -> tuple[np.ndarray, dict[str, Any]]:
+        self._obs, info = self.env.reset(**kwargs)
+        self.residual.reset()
+        return self.residual.features(self._obs), info
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        assert self._obs is not None, "call reset() before step()"
+        a = self.residual.action(self._obs, action)
+        self._obs, reward, terminated, truncated, info = self.env.step(a)
+        features = self.residual.features(self._obs)
+        return features, self.reward_scale * float(reward), terminated, truncated, info
+
+
+def checkpoint_control(checkpoint: str | Path = DEFAULT_CHECKPOINT) -> str:
+    """The control mode a checkpoint drives (its metadata's ``control``); "position" when
+    there is no checkpoint yet (`LearnedController` then says what is missing)."""
+    meta_path = Path(checkpoint).with_suffix(".json")
+    if not meta_path.is_file():
+        return "position"
+    return str(json.loads(meta_path.read_text())["control"])
+
+
+def load_policy(path: str | Path, metadata: dict[str, Any]) -> Any:
+    """An SB3 policy rebuilt from its metadata and the weights at ``path`` (a
+    ``state_dict`` saved by ``training/train_tracker.py``, loaded with
+    ``weights_only=True``: no pickled code runs)."""
+    import torch
+    from stable_baselines3.common.utils import ConstantSchedule
+
+    algo = metadata["algorithm"]
+    size, n = metadata["observation_size"], metadata["action_size"]
+    obs_space = spaces.Box(-5.0, 5.0, shape=(size,), dtype=np.float32)
+    act_space = spaces.Box(-1.0, 1.0, shape=(n,), dtype=np.float32)
+    if algo == "sac":
+        from stable_baselines3.sac.policies import SACPolicy as Policy
+    elif algo == "ppo":
+        from stable_baselines3.common.policies import ActorCriticPolicy as Policy
+    else:
+        raise ValueError(f"{path}: metadata 'algorithm' must be 'sac' or 'ppo', got {algo!r}")
+    policy = Policy(obs_space, act_space, ConstantSchedule(0.0),
+                    net_arch=list(metadata["net_arch"]))
+    policy.load_state_dict(torch.load(path, map_location="cpu", weights_only=True))
+    policy.set_training_mode(False)
+    return policy
+
+
+class LearnedController:
+    """The trained residual policy as a controller: ``reset()``, ``__call__(obs) ->
+    action``, for an estimator-wrapped env with the control mode it was trained on
+    (``control`` in its metadata).
+
+    Args:
+        env: the wrapped env (for the joint ranges, fps and the servo's action scale).
+        checkpoint: the policy weights (``.pt``); its metadata is the ``.json`` beside it.
+    """
+
+    def __init__(self, env: gym.Env, checkpoint: str | Path = DEFAULT_CHECKPOINT) -> None:
+        checkpoint = Path(checkpoint)
+        meta_path = checkpoint.with_suffix(".json")
+        if not checkpoint.is_file() or not meta_path.is_file():
+            raise FileNotFoundError(f"learned tracker needs {checkpoint} and {meta_path}; "
+                                    "train one with python training/train_tracker.py")
+        self.metadata = json.loads(meta_path.read_text())
+        if self.metadata.get("features_version") != FEATURES_VERSION:
+            raise ValueError(f"{meta_path}: features_version "
+                             f"{self.metadata.get('features_version')!r}, this code computes "
+                             f"version {FEATURES_VERSION}; retrain the tracker")
+        control = self.metadata["control"]
+        if env.unwrapped.control != control:
+            raise ValueError(f"LearnedController drives control={control!r} actuation; this "
+                             f"env has control={env.unwrapped.control!r}")
+        self.residual = _Residual(env, float(self.metadata["residual_scale"]),
+                                  bool(self.metadata["hold_until_moving"]),
+                                  int(self.metadata.get("history_frames", 0)))
+        if self.metadata["observation_size"] != self.residual.features.size:
+            raise ValueError(f"{meta_path}: a policy for {self.metadata['observation_size']} "
+                             f"features, this env gives {self.residual.features.size}")
+        self.policy = load_policy(checkpoint, self.metadata)
+
+    def reset(self) -> None:
+        self.residual.reset()
+
+    def __call__(self, obs: dict[str, Any]) -> np.ndarray:
+        residual, _ = self.policy.predict(self.residual.features(obs), deterministic=True)
+        return self.residual.action(obs, residual)

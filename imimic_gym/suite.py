@@ -1,0 +1,242 @@
+"""The tracking evaluation suite: scenarios x estimators x controllers x held-out seeds.
+
+Every run is a plain Gymnasium loop, ``obs, info = env.reset(seed=s)`` then
+``env.step(controller(obs))`` to the clip's end (`rollout.run_episode`), or the same loop
+over ``gym.make_vec`` sub-envs when ``num_envs > 1``; both give the same numbers. The
+estimator and controller sets are registries: adding one is one line.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from tqdm import tqdm
+
+from imimic_gym.clips.scenarios import get_scenario
+from imimic_gym.rollout import Trajectory, run_episode
+
+__all__ = [
+    "CONTROLLERS", "ESTIMATORS", "FIRST_HELD_OUT_SEED", "METRICS", "RunConfig", "run_config",
+    "run_suite", "summarise",
+]
+
+FIRST_HELD_OUT_SEED = 1000  # training and tests use clip seeds below this
+METRICS = ("rmse_deg", "max_error_deg", "lag_frames", "jerk_deg_s3", "recovery_s",
+           "mean_trust")
+
+
+def _vision(name: str) -> Callable[[gym.Env], gym.Env]:
+    """An estimator wrapper for ``evaluation.make_estimator``'s estimator ``name``."""
+
+    def wrap(env: gym.Env) -> gym.Env:
+        from imimic_gym.evaluation import make_estimator
+        from imimic_gym.wrappers import EstimatorObservation
+
+        inner = env.unwrapped
+        if inner.arm.n_links != 1:
+            raise ValueError(f"estimator {name!r} follows one moving link so far; this "
+                             f"scenario has {inner.arm.n_links}")
+        estimator = make_estimator(name, inner.clip.meta, float(inner.clip.fps),
+                                   tuple(inner.arm.joint_ranges[0]))
+        return EstimatorObservation(env, estimator, keep_frame=False)
+
+    return wrap
+
+
+def _cnn(env: gym.Env) -> gym.Env:
+    from imimic_gym.wrappers import CNNObservation
+
+    return CNNObservation(env, keep_frame=False)
+
+
+def _truth(env: gym.Env) -> gym.Env:
+    from imimic_gym.wrappers import TruthObservation
+
+    return TruthObservation(env, keep_frame=False)
+
+
+# Estimator name -> wrapper that adds obs["estimate"] (and drops the frame).
+ESTIMATORS: dict[str, Callable[[gym.Env], gym.Env]] = {
+    "oracle": _truth,
+    "don": _vision("don"),
+    "mog2": _vision("mog2"),
+    "camshift": _vision("camshift"),
+    "cnn": _cnn,
+}
+
+
+def _oracle(env: gym.Env):
+    from imimic_gym.controllers import OracleController
+
+    return OracleController(env)
+
+
+def _learned(env: gym.Env):
+    from imimic_gym.controllers.learned import LearnedController
+
+    return LearnedController(env)
+
+
+def _scripted(name: str, hold: bool = False) -> Callable[[gym.Env], Any]:
+    def build(env: gym.Env):
+        from imimic_gym.controllers import SCRIPTED_CONTROLLERS
+
+        return SCRIPTED_CONTROLLERS[name](env, hold_until_moving=hold)
+
+    return build
+
+
+# Controller name -> (the env's control mode, factory taking the wrapped env). The oracle
+# reads the truth one frame ahead from the env itself and ignores the estimate. The
+# "-hold" variants keep the start pose until the estimate first moves (`EstimateTarget`).
+# The learned tracker's control mode is its checkpoint's (`RunConfig.control`).
+CONTROLLERS: dict[str, tuple[str, Callable[[gym.Env], Any]]] = {
+    "oracle": ("position", _oracle),
+    "position": ("position", _scripted("position")),
+    "velocity": ("velocity", _scripted("velocity")),
+    "torque": ("torque", _scripted("torque")),
+    "position-hold": ("position", _scripted("position", hold=True)),
+    "velocity-hold": ("velocity", _scripted("velocity", hold=True)),
+    "torque-hold": ("torque", _scripted("torque", hold=True)),
+    "learned": ("position", _learned),
+}
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """One cell of the grid: a scenario, an estimator, a controller, the clip seeds."""
+
+    scenario: str
+    estimator: str
+    controller: str
+    seeds: tuple[int, ...]
+    frames: int | None = None
+
+    def __post_init__(self) -> None:
+        get_scenario(self.scenario)
+        for kind, name, registry in (("estimator", self.estimator, ESTIMATORS),
+                                     ("controller", self.controller, CONTROLLERS)):
+            if name not in registry:
+                raise ValueError(f"unknown {kind} {name!r}; expected one of {sorted(registry)}")
+
+    @property
+    def control(self) -> str:
+        if self.controller == "learned":
+            from imimic_gym.controllers.learned import checkpoint_control
+
+            return checkpoint_control()
+        return CONTROLLERS[self.controller][0]
+
+    def env_kwargs(self) -> dict[str, Any]:
+        kwargs: dict[str, Any] = {"scenario": self.scenario, "control": self.control,
+                                  "clip_seeds": self.seeds}
+        if self.frames:
+            kwargs["n_frames"] = self.frames
+        return kwargs
+
+    def make_env(self) -> gym.Env:
+        return ESTIMATORS[self.estimator](gym.make("ImitateVideo-v0", **self.env_kwargs()))
+
+
+def run_config(config: RunConfig, num_envs: int = 1) -> list[Trajectory]:
+    """One trajectory per seed of ``config``, in seed order. ``num_envs > 1`` steps that
+    many clips at once through ``gym.make_vec`` (async: one process each; the oracle
+    controller, which reads its sub-env's clip, runs them in sync mode)."""
+    if num_envs <= 1:
+        env = config.make_env()
+        controller = CONTROLLERS[config.controller][1](env)
+        out = [run_episode(env, controller, seed=s, options={"clip_seed": s})
+               for s in config.seeds]
+        env.close()
+        return out
+    return _run_vector(config, num_envs)
+
+
+def _run_vector(config: RunConfig, num_envs: int) -> list[Trajectory]:
+    sync = config.controller == "oracle"
+    vec = gym.make_vec("ImitateVideo-v0", num_envs=num_envs,
+                       vectorization_mode="sync" if sync else "async",
+                       wrappers=[ESTIMATORS[config.estimator]], **config.env_kwargs())
+    factory = CONTROLLERS[config.controller][1]
+    template = None if sync else config.make_env()
+    controllers = [factory(vec.envs[i] if sync else template) for i in range(num_envs)]
+    fps = float((vec.envs[0] if sync else template).unwrapped.clip.fps)
+    out: list[Trajectory] = []
+    try:
+        for start in range(0, len(config.seeds), num_envs):
+            batch = list(config.seeds[start:start + num_envs])
+            batch += [batch[-1]] * (num_envs - len(batch))  # idle sub-envs replay a seed
+            out += _vector_episode(vec, controllers, batch, fps)[: len(config.seeds) - start]
+    finally:
+        vec.close()
+        if template is not None:
+            template.close()
+    return out
+
+
+def _vector_episode(vec: gym.vector.VectorEnv, controllers: list, seeds: list[int],
+                    fps: float) -> list[Trajectory]:
+    """One clip per sub-env (all clips of a scenario have the same length)."""
+    vec.set_attr("clip_seeds", [(s,) for s in seeds])
+    obs, info = vec.reset(seed=seeds)
+    for controller in controllers:
+        controller.reset()
+    n = len(seeds)
+    logs: list[dict[str, list]] = [{"t": [], "target": [], "robot": [], "reward": [],
+                                    "occlusion": [], "trust": []} for _ in range(n)]
+    from imimic_gym.wrappers import estimate_fields
+
+    trust_at = estimate_fields(obs["qpos"].shape[1])["trust"].start
+
+    def log(obs: dict[str, np.ndarray], info: dict[str, Any], reward: np.ndarray) -> None:
+        for i, entry in enumerate(logs):
+            entry["t"].append(info["frame_index"][i] / fps)
+            entry["target"].append(info["target_angles"][i])
+            entry["robot"].append(obs["qpos"][i])
+            entry["occlusion"].append(info["occlusion"][i])
+            entry["trust"].append(float(obs["estimate"][i, trust_at]))
+            entry["reward"].append(float(reward[i]))
+
+    log(obs, info, np.zeros(n))
+    done = np.zeros(n, dtype=bool)
+    while not done.all():
+        actions = np.stack([c({k: v[i] for k, v in obs.items()})
+                            for i, c in enumerate(controllers)])
+        obs, reward, terminated, truncated, info = vec.step(actions)
+        log(obs, info, reward)
+        done = terminated | truncated
+    return [Trajectory(time=np.asarray(e["t"]), target=np.asarray(e["target"]),
+                       robot=np.asarray(e["robot"]), reward=np.asarray(e["reward"]),
+                       occlusion=np.asarray(e["occlusion"]), trust=np.asarray(e["trust"]))
+            for e in logs]
+
+
+def summarise(config: RunConfig, trajectories: Sequence[Trajectory]) -> dict[str, Any]:
+    """Per-seed metrics and their means (a metric that is None for every seed, such as
+    the recovery time without occlusion, stays None)."""
+    rows = [{"seed": s, **t.metrics()} for s, t in zip(config.seeds, trajectories, strict=True)]
+    mean: dict[str, float | None] = {}
+    for key in METRICS:
+        values = [r[key] for r in rows if r[key] is not None]
+        mean[key] = float(np.mean(values)) if values else None
+    return {"scenario": config.scenario, "estimator": config.estimator,
+            "controller": config.controller, "control": config.control,
+            "episodes": len(rows), "seeds": list(config.seeds), "mean": mean, "rows": rows}
+
+
+def run_suite(configs: Sequence[RunConfig], num_envs: int = 1,
+              on_trajectory: Callable[[RunConfig, Trajectory], None] | None = None,
+              ) -> list[dict[str, Any]]:
+    """Run every config (a progress bar over them) and summarise each.
+    ``on_trajectory`` gets each config's first trajectory (for plots)."""
+    results = []
+    for config in tqdm(configs, desc="imimic eval", unit="run"):
+        trajectories = run_config(config, num_envs=num_envs)
+        if on_trajectory is not None:
+            on_trajectory(config, trajectories[0])
+        results.append(summarise(config, trajectories))
+    return results

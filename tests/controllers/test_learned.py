@@ -1,0 +1,67 @@
+import json
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env as gym_check_env
+
+import imimic_gym  # noqa: F401
+from imimic_gym.controllers import SCRIPTED_CONTROLLERS, PositionController
+from imimic_gym.controllers.learned import DEFAULT_CHECKPOINT, LearnedController, ResidualTracking
+from imimic_gym.rollout import run_episode
+from imimic_gym.wrappers import DONObservation
+
+
+def don_env(scenario: str = "exp2-servo", control: str = "position", **kwargs) -> gym.Env:
+    return DONObservation(gym.make("ImitateVideo-v0", scenario=scenario, control=control,
+                                   **kwargs), keep_frame=False)
+
+
+def test_the_shipped_policy_loads_with_its_metadata_and_tracks_the_servo() -> None:
+    meta = json.loads(DEFAULT_CHECKPOINT.with_suffix(".json").read_text())
+    assert meta["estimator"] == "don" and "exp2-servo" in meta["scenarios"]
+    assert max(meta["train_seeds"]) < 1000 and max(meta["val_seeds"]) < 1000
+    env = don_env(clip_seeds=(100,))
+    learned = run_episode(env, LearnedController(env), seed=0).metrics()
+    plain = run_episode(env, PositionController(env), seed=0).metrics()
+    # Clip 100 starts with DON 34 degrees off for four frames (see test_scripted).
+    assert learned["rmse_deg"] < plain["rmse_deg"]
+    assert learned["rmse_deg"] < 4.0
+
+
+def test_residual_training_env_passes_both_checkers() -> None:
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    env = ResidualTracking(don_env(n_frames=40, clip_seeds=(100,)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        warnings.filterwarnings("ignore", message=".*different from the unwrapped version")
+        gym_check_env(env)
+        sb3_check_env(env, warn=True)
+    obs, _ = env.reset(seed=0)
+    assert obs.dtype == np.float32 and env.observation_space.contains(obs)
+
+
+@pytest.mark.parametrize("control", ["position", "velocity"])
+def test_the_untrained_residual_is_the_scripted_controller(control: str) -> None:
+    env = don_env(control=control, n_frames=30, clip_seeds=(100,))
+    reference = run_episode(env, SCRIPTED_CONTROLLERS[control](env, hold_until_moving=True),
+                            seed=0)
+    wrapped = ResidualTracking(env, hold_until_moving=True)
+    wrapped.reset(seed=0)
+    robot = [wrapped.unwrapped.data.qpos.copy()]
+    for _ in range(29):
+        wrapped.step(np.zeros(1, dtype=np.float32))
+        robot.append(wrapped.unwrapped.data.qpos.copy())
+    np.testing.assert_allclose(np.array(robot), reference.robot)
+
+
+def test_learned_controller_refuses_what_it_cannot_drive(tmp_path) -> None:
+    with pytest.raises(FileNotFoundError, match=r"missing\.pt"):
+        LearnedController(don_env(n_frames=10), tmp_path / "missing.pt")
+    with pytest.raises(ValueError, match=r"drives control='[a-z]+' actuation; this env "
+                                         r"has control='torque'"):
+        LearnedController(don_env(control="torque", n_frames=10))
+    with pytest.raises(TypeError, match="obs\\['estimate'\\]"):
+        ResidualTracking(gym.make("ImitateVideo-v0", n_frames=10))

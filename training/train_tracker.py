@@ -1,0 +1,315 @@
+"""Train the learned tracker: a stable-baselines3 policy (SAC, or PPO) that corrects the
+position controller, on ImitateVideo-v0 behind the DON wrapper (``keep_frame=False``).
+
+One env per training scenario, vectorised; clip seeds below 1000 only (``--train-seeds``
+for training, ``--val-seeds`` for the periodic evaluation; the evaluation suite's
+held-out seeds start at 1000 and are never seen here). Writes TensorBoard logs to
+``runs/<run name>/``, and the policy weights and metadata to ``--out`` (default
+``checkpoints/tracker.pt`` and ``tracker.json``), which `LearnedController` loads.
+
+    python training/train_tracker.py                       # the shipped policy
+    python training/train_tracker.py --total-timesteps 200 --out /tmp/t.pt   # smoke run
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import os
+import random
+import shlex
+import sys
+import time
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import torch
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.vec_env import DummyVecEnv
+from torch.utils.tensorboard import SummaryWriter
+from tqdm import tqdm
+
+import imimic_gym  # noqa: F401  (registers ImitateVideo-v0)
+from imimic_gym.controllers.learned import FEATURES_VERSION, ResidualTracking
+from imimic_gym.wrappers import DONObservation
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@dataclass
+class Args:
+    algorithm: str = "sac"
+    """the SB3 algorithm: sac (default) or ppo"""
+    scenarios: tuple[str, ...] = ("exp2-servo", "exp3-forearm-none", "exp3-forearm-low",
+                                  "exp3-forearm-high")
+    """training scenarios, one vectorised env each (one-link: DON follows one link)"""
+    train_seeds: int = 48
+    """clip seeds 0 .. train_seeds-1 of every scenario are the training clips"""
+    val_seeds: tuple[int, ...] = (900, 901)
+    """clip seeds for the periodic evaluation (below 1000, never trained on)"""
+    total_timesteps: int = 120_000
+    """env steps over all envs (one step = one video frame)"""
+    eval_every: int = 20_000
+    """env steps between periodic evaluations"""
+    frames: int | None = None
+    """clip length in frames (None: the scenario's, 150); short clips for smoke runs"""
+    control: str = "position"
+    """the robot's actuation, and so the scripted controller under the residual:
+    position or velocity"""
+    residual_scale: float = 1.0
+    """the policy's action, times this, is added to the scripted controller's action"""
+    reward_balance: float = 0.5
+    """each scenario's reward is divided by the position controller's mean squared error
+    there to this power: 1 weighs scenarios by relative improvement, 0 by raw error"""
+    history: int = 6
+    """extra frames of estimate history in the policy's features (TrackerFeatures)"""
+    hold_until_moving: bool = True
+    """the position controller under the residual holds the start pose until DON moves"""
+    net_arch: tuple[int, ...] = (64, 64)
+    """hidden layers of the actor and the critics"""
+    learning_rate: float = 1e-3
+    """Adam learning rate"""
+    gamma: float = 0.9
+    """discount: tracking is short-sighted, ten frames of horizon are enough to anticipate"""
+    batch_size: int = 256
+    """SAC minibatch (PPO: minibatch size too)"""
+    learning_starts: int = 2_000
+    """SAC: env steps with uniformly random residuals (exploration) before the first update"""
+    seed: int = 0
+    """seeds torch, numpy, random and the envs"""
+    threads: int = 1
+    """torch threads (the machine is shared; 1 is as fast for these small nets)"""
+    out: str = str(ROOT / "checkpoints" / "tracker.pt")
+    """where to write the policy weights; the metadata goes to the same name .json"""
+    logdir: str = "runs"
+    """TensorBoard log folder; the run writes into logdir/<run name>"""
+    run_name: str = field(default="")
+    """default: tracker__<algorithm>__<seed>__<unix time>"""
+
+
+def parse_args() -> Args:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    docs = _field_docs()
+    for f in fields(Args):
+        default = getattr(Args, f.name, None) if f.name != "run_name" else ""
+        flag = "--" + f.name.replace("_", "-")
+        if isinstance(default, bool):
+            parser.add_argument(flag, action=argparse.BooleanOptionalAction, default=default,
+                                help=docs[f.name])
+        elif isinstance(default, tuple):
+            kind = type(default[0])
+            parser.add_argument(flag, nargs="+", type=kind, default=default, help=docs[f.name])
+        elif f.name == "frames":
+            parser.add_argument(flag, type=int, default=None, help=docs[f.name])
+        else:
+            parser.add_argument(flag, type=type(default), default=default, help=docs[f.name])
+    ns = parser.parse_args()
+    args = Args(**{k: tuple(v) if isinstance(v, list) else v for k, v in vars(ns).items()})
+    if args.algorithm not in ("sac", "ppo"):
+        parser.error(f"--algorithm must be sac or ppo, got {args.algorithm!r}")
+    if args.control not in ("position", "velocity"):
+        parser.error(f"--control must be position or velocity, got {args.control!r}")
+    if any(s >= 1000 for s in args.val_seeds) or args.train_seeds > 900:
+        parser.error("training and validation clip seeds must stay below 1000 (held out) and "
+                     "the training seeds below the validation ones")
+    return args
+
+
+def _field_docs() -> dict[str, str]:
+    """Each Args field's docstring (the string literal under it), for --help."""
+    import ast
+    import inspect
+
+    tree = ast.parse(inspect.getsource(Args))
+    body = tree.body[0].body
+    docs = {}
+    for node, after in itertools.pairwise(body):
+        if isinstance(node, ast.AnnAssign) and isinstance(after, ast.Expr):
+            docs[node.target.id] = str(after.value.value).replace("%", "%%")
+    return docs
+
+
+def make_env(scenario: str, seeds: tuple[int, ...], args: Args,
+             reward_scale: float = 1.0) -> gym.Env:
+    """ImitateVideo-v0 (position control) -> DON (no frame) -> residual features/actions."""
+    kwargs = {"n_frames": args.frames} if args.frames else {}
+    env = gym.make("ImitateVideo-v0", scenario=scenario, control=args.control,
+                   clip_seeds=seeds, **kwargs)
+    return ResidualTracking(DONObservation(env, keep_frame=False), args.residual_scale,
+                            reward_scale, args.hold_until_moving, args.history)
+
+
+def reward_scales(args: Args, seeds: tuple[int, ...]) -> dict[str, float]:
+    """Per scenario, (the position controller's mean squared error (rad^2) on the first
+    two training clips) ** -reward_balance. With balance 1 every scenario's reward counts
+    relative to what the scripted controller already achieves there; with 0 the occluded
+    forearm's errors (tens of degrees) drown the servo's (a degree or two) in the
+    critic's targets."""
+    scales = {}
+    for scenario in args.scenarios:
+        env = make_env(scenario, seeds, args)
+        squared = []
+        for seed in seeds[:2]:
+            env.reset(seed=seed, options={"clip_seed": seed})
+            done = False
+            while not done:
+                _, reward, terminated, truncated, _ = env.step(np.zeros(env.action_space.shape))
+                squared.append(-reward)
+                done = terminated or truncated
+        scales[scenario] = max(float(np.mean(squared)), 1e-6) ** -args.reward_balance
+        env.close()
+    return scales
+
+
+def episode_rmse_deg(env: gym.Env, act, seeds: tuple[int, ...]) -> float:
+    """Mean over ``seeds`` of one episode's RMS tracking error (deg), acting with ``act``."""
+    errors = []
+    for seed in seeds:
+        obs, info = env.reset(seed=seed, options={"clip_seed": seed})
+        squared, done = [], False
+        while not done:
+            obs, _, terminated, truncated, info = env.step(act(obs))
+            squared.append(info["tracking_error_deg"] ** 2)
+            done = terminated or truncated
+        errors.append(float(np.sqrt(np.mean(squared))))
+    return float(np.mean(errors))
+
+
+def evaluate(policy, args: Args) -> dict[str, float]:
+    """Deterministic policy vs the untrained residual (the scripted controller) on the
+    validation seeds: RMSE (deg) per scenario, mean over seeds."""
+    result = {}
+    for scenario in args.scenarios:
+        env = make_env(scenario, args.val_seeds, args)
+        untrained = np.zeros(env.action_space.shape, dtype=np.float32)
+        result[f"{scenario}/learned_rmse_deg"] = episode_rmse_deg(
+            env, lambda o: policy.predict(o, deterministic=True)[0], args.val_seeds)
+        result[f"{scenario}/scripted_rmse_deg"] = episode_rmse_deg(
+            env, lambda o, a=untrained: a, args.val_seeds)
+        env.close()
+    return result
+
+
+class Progress(BaseCallback):
+    """tqdm bar, episode charts, and the periodic evaluation, logged to TensorBoard."""
+
+    def __init__(self, args: Args, writer: SummaryWriter) -> None:
+        super().__init__()
+        self.args, self.writer, self.next_eval = args, writer, args.eval_every
+        self.bar = tqdm(total=args.total_timesteps, desc="train_tracker", unit="step")
+        self.start = time.time()
+        self.last_eval: dict[str, float] = {}
+
+    def _on_step(self) -> bool:
+        self.bar.update(self.training_env.num_envs)
+        step = self.num_timesteps
+        for info in self.locals.get("infos", []):
+            if "episode" in info:
+                self.writer.add_scalar("charts/episodic_return", info["episode"]["r"], step)
+        if step >= self.next_eval:
+            self.next_eval += self.args.eval_every
+            self._evaluate(step)
+        return True
+
+    def _evaluate(self, step: int) -> None:
+        self.last_eval = evaluate(self.model, self.args)
+        for key, value in self.last_eval.items():
+            self.writer.add_scalar(f"eval/{key}", value, step)
+        self.writer.add_scalar("charts/SPS", step / (time.time() - self.start), step)
+        self.bar.write(f"step {step}: " + ", ".join(f"{k} {v:.2f}"
+                                                    for k, v in self.last_eval.items()))
+
+
+def main() -> None:
+    args = parse_args()
+    args.run_name = args.run_name or f"tracker__{args.algorithm}__{args.seed}__{int(time.time())}"
+    writer = SummaryWriter(os.path.join(args.logdir, args.run_name))
+    writer.add_text("hyperparameters", "|param|value|\n|-|-|\n" + "\n".join(
+        f"|{k}|{v}|" for k, v in asdict(args).items()))
+
+    # Seeding: identical arguments give an identical run.
+    random.seed(args.seed)
+    np.random.seed(args.seed)
+    torch.manual_seed(args.seed)
+    torch.set_num_threads(args.threads)
+
+    train_seeds = tuple(range(args.train_seeds))
+    from stable_baselines3.common.monitor import Monitor
+
+    scales = reward_scales(args, train_seeds)
+    venv = DummyVecEnv([lambda s=s: Monitor(make_env(s, train_seeds, args, scales[s]))
+                        for s in args.scenarios])
+    venv.seed(args.seed)
+    policy_kwargs = {"net_arch": list(args.net_arch)}
+    if args.algorithm == "sac":
+        from stable_baselines3 import SAC
+
+        model = SAC("MlpPolicy", venv, learning_rate=args.learning_rate, gamma=args.gamma,
+                    batch_size=args.batch_size, learning_starts=args.learning_starts,
+                    policy_kwargs=policy_kwargs, seed=args.seed, device="cpu", verbose=0)
+    else:
+        from stable_baselines3 import PPO
+
+        model = PPO("MlpPolicy", venv, learning_rate=args.learning_rate, gamma=args.gamma,
+                    batch_size=args.batch_size, n_steps=512, policy_kwargs=policy_kwargs,
+                    seed=args.seed, device="cpu", verbose=0)
+    model.set_logger(_sb3_logger(writer.log_dir))
+    callback = Progress(args, writer)
+    start = time.time()
+    model.learn(total_timesteps=args.total_timesteps, callback=callback)
+    callback.bar.close()
+    train_s = time.time() - start
+    final = evaluate(model, args)
+    for key, value in final.items():
+        writer.add_scalar(f"eval/{key}", value, model.num_timesteps)
+    writer.close()
+
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    torch.save(model.policy.state_dict(), out)
+    import stable_baselines3
+
+    metadata = {
+        "algorithm": args.algorithm,
+        "features_version": FEATURES_VERSION,
+        "observation_size": int(venv.observation_space.shape[0]),
+        "action_size": int(venv.action_space.shape[0]),
+        "net_arch": list(args.net_arch),
+        "residual_scale": args.residual_scale,
+        "reward_scales": scales,
+        "hold_until_moving": args.hold_until_moving,
+        "history_frames": args.history,
+        "control": args.control,
+        "estimator": "don",
+        "scenarios": list(args.scenarios),
+        "train_seeds": list(train_seeds),
+        "val_seeds": list(args.val_seeds),
+        "total_timesteps": int(model.num_timesteps),
+        "train_seconds": round(train_s, 1),
+        "torch_threads": args.threads,
+        "stable_baselines3": stable_baselines3.__version__,
+        "torch": torch.__version__,
+        "run_name": args.run_name,
+        "command": shlex.join(["python", "training/train_tracker.py", *sys.argv[1:]]),
+        "val_metrics": final,
+        "args": {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(args).items()},
+    }
+    out.with_suffix(".json").write_text(json.dumps(metadata, indent=2) + "\n")
+    print(f"wrote {out} and {out.with_suffix('.json')} after {train_s:.0f} s")
+    for key, value in final.items():
+        print(f"  {key:40s} {value:6.2f}")
+
+
+def _sb3_logger(folder: str):
+    """SB3's own losses (``train/...``) into the same TensorBoard run."""
+    from stable_baselines3.common.logger import configure
+
+    return configure(folder, ["tensorboard"])
+
+
+if __name__ == "__main__":
+    main()
