@@ -46,6 +46,7 @@ def render(load: Callable[[str], object],
                           f"{rmse[(scenario, best)]:.2f} deg): learned {learned:.2f} deg, "
                           f"{change}; 20% lower needed: {_verdict(cut >= 0.2)}.")
     servo = rmse[("exp2-servo", "position")]
+    servo_hold = rmse[("exp2-servo", "position-hold")]
     val = meta["val_metrics"]
     return f"""
 
@@ -68,14 +69,19 @@ policy (`checkpoints/tracker.pt`): {meta['algorithm'].upper()}, a residual on {m
         "recovery (s)", "mean eta"], rows)}
 
 Against issue 5's acceptance:
-- DON + position controller on `exp2-servo` at most 4 degrees: {_verdict(servo <= 4.0)}
-  ({servo:.2f}).
+- DON + position controller on `exp2-servo` at most 4 degrees: plain, {_verdict(servo <= 4.0)}
+  ({servo:.2f}); with the hold option (`position-hold`, the same servo that waits for the
+  estimate's first movement), {_verdict(servo_hold <= 4.0)} ({servo_hold:.2f}).
 - Learned controller at least 20% below the best scripted controller:
 {chr(10).join(checks)}
-- The policy was chosen among the training runs by these validation clips (seeds
-  {meta['val_seeds']}, below 1000) and by the held-out table above, so the held-out
-  seeds took part in choosing which run to ship. Validation RMSE (deg):
-  {', '.join(f'{k} {v:.2f}' for k, v in val.items())}.
+- The policy was chosen among the helper's training runs by validation clips (seeds
+  {meta['val_seeds']}, below 1000) and by held-out seeds 1000-1004, which are in the
+  table above: those seeds took part in choosing which run to ship. Its validation RMSE
+  (deg), measured with the DON of its training, before the link geometry learned the
+  joint's range: {', '.join(f'{k} {v:.2f}' for k, v in val.items())}. Retrained once
+  with today's DON (same command) and compared on clips 900-909, the new policy was better
+  on the occluder clips and worse on the servo, and neither reached 20% below
+  velocity-hold on either scenario, so the first one stays shipped.
 
 ### The paper's experiments
 
@@ -97,8 +103,8 @@ Reading the tables:
   its margin over the plain controllers there comes from the clips whose start DON gets
   badly wrong (on the paper table's three clips it is slightly behind the plain servo).
 - On `exp3-forearm-low` DON's estimate is the limit (its estimator-only RMSE is in the
-  DON section above): every controller inherits its wrong stretches. The learned
-  policy has the lowest RMSE and the lowest largest error there; how it gets them
-  (which of DON's jumps it declines to follow) is not traced frame by frame yet. Its
+  DON section above): every controller inherits its wrong stretches. In this run the
+  learned policy has the lowest RMSE and the lowest largest error there; how (which of
+  DON's jumps it declines to follow) is not traced frame by frame yet. Its
   jerk stays high: it still moves the servo target every frame.
 """

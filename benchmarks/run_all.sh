@@ -33,7 +33,7 @@ fi
 "$BIN/python" benchmarks/cnn_speed.py --json benchmarks/results/cnn_speed.json
 "$BIN/imimic" eval --scenario exp2-servo exp3-forearm-low --estimator don \
     --controller position velocity torque position-hold velocity-hold torque-hold learned \
-    --episodes 5 --num-envs 2 --out benchmarks/results/tracking \
+    --episodes 10 --num-envs 2 --out benchmarks/results/tracking \
     --json benchmarks/results/tracking.json
 "$BIN/imimic" eval --paper --json benchmarks/results/paper.json --out benchmarks/results/paper
 "$BIN/python" benchmarks/eval_paper_time.py --json benchmarks/results/paper_time.json
