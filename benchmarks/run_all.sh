@@ -28,7 +28,7 @@ mkdir -p benchmarks/results
 if [ -d ../shared/realdata/coco_mini ]; then
     "$BIN/python" benchmarks/cnn_real_photos.py --json benchmarks/results/cnn_real_photos.json
 fi
-"$BIN/imimic" eval --scenario exp3-forearm-none --estimator cnn --episodes 3 \
+"$BIN/imimic" eval --scenario exp3-forearm-none --estimator cnn --episodes 10 \
     --json benchmarks/results/eval_cnn.json
 "$BIN/python" benchmarks/cnn_speed.py --json benchmarks/results/cnn_speed.json
 "$BIN/imimic" eval --scenario exp2-servo exp3-forearm-low --estimator don \
