@@ -172,8 +172,13 @@ def load_policy(path: str | Path, metadata: dict[str, Any]) -> Any:
     """An SB3 policy rebuilt from its metadata and the weights at ``path`` (a
     ``state_dict`` saved by ``training/train_tracker.py``, loaded with
     ``weights_only=True``: no pickled code runs)."""
+    import pickle
+    import zipfile
+
     import torch
     from stable_baselines3.common.utils import ConstantSchedule
+
+    from imimic_gym.estimators.cnn import CheckpointError
 
     algo = metadata["algorithm"]
     size, n = metadata["observation_size"], metadata["action_size"]
@@ -187,7 +192,14 @@ def load_policy(path: str | Path, metadata: dict[str, Any]) -> Any:
         raise ValueError(f"{path}: metadata 'algorithm' must be 'sac' or 'ppo', got {algo!r}")
     policy = Policy(obs_space, act_space, ConstantSchedule(0.0),
                     net_arch=list(metadata["net_arch"]))
-    policy.load_state_dict(torch.load(path, map_location="cpu", weights_only=True))
+    try:
+        policy.load_state_dict(torch.load(path, map_location="cpu", weights_only=True))
+    except (RuntimeError, pickle.UnpicklingError, EOFError, zipfile.BadZipFile,
+            ValueError) as err:
+        first = " ".join(str(err).strip().splitlines()[:3])
+        raise CheckpointError(f"tracker checkpoint {path} is not a {algo.upper()} policy "
+                              f"state_dict matching its metadata (corrupt, truncated or "
+                              f"another architecture?): {first}") from err
     policy.set_training_mode(False)
     return policy
 

@@ -65,3 +65,14 @@ def test_learned_controller_refuses_what_it_cannot_drive(tmp_path) -> None:
         LearnedController(don_env(control="torque", n_frames=10))
     with pytest.raises(TypeError, match="obs\\['estimate'\\]"):
         ResidualTracking(gym.make("ImitateVideo-v0", n_frames=10))
+
+
+def test_a_corrupt_tracker_checkpoint_is_named(tmp_path) -> None:
+    from imimic_gym.estimators.cnn import CheckpointError
+
+    broken = tmp_path / "tracker.pt"
+    broken.write_bytes(DEFAULT_CHECKPOINT.read_bytes()[:500])  # truncated
+    broken.with_suffix(".json").write_text(DEFAULT_CHECKPOINT.with_suffix(".json").read_text())
+    with pytest.raises(CheckpointError, match=r"tracker checkpoint .*tracker\.pt is not a SAC "
+                                              r"policy state_dict"):
+        LearnedController(don_env(n_frames=10), broken)
