@@ -279,6 +279,9 @@ def cmd_mimic(args: argparse.Namespace) -> int:
     """`imimic mimic`; footage that cannot be used is reported in one line (exit code 2)."""
     from imimic_gym.clips.video import VideoFormatError, VideoOpenError
 
+    if args.estimator != "don" and args.pivot:
+        raise SystemExit("imimic mimic: --pivot is DON's; the CNN finds the shoulder, elbow "
+                         "and wrist itself")
     if args.estimator == "don" and args.links != 1:
         raise SystemExit(f"imimic mimic: DON follows one moving link so far; --links "
                          f"{args.links} needs another estimator")
@@ -358,7 +361,8 @@ def _add_mimic(sub: argparse._SubParsersAction) -> None:
     mimic.add_argument("--estimator", default="don", choices=sorted(ESTIMATOR_WRAPPERS),
                        help="the vision estimator (default: %(default)s)")
     mimic.add_argument("--links", type=int, default=1,
-                       help="moving links to copy (default: %(default)s; DON handles 1)")
+                       help="moving links to copy (default: %(default)s; DON handles 1, "
+                            "the CNN 1 or 2)")
     mimic.add_argument("--control", default="position",
                        choices=("position", "velocity", "torque"),
                        help="robot actuation (default: %(default)s, the paper's servo)")

@@ -52,11 +52,21 @@ def _don_frames_needed(params: dict[str, Any]) -> int:
     return int(params.get("window", 10)) + 1
 
 
+def _cnn(env: gym.Env, params: dict[str, Any]) -> gym.Env:
+    from imimic_gym.wrappers import CNNObservation
+
+    if "pivot" in params:
+        raise ValueError("the CNN finds the shoulder, elbow and wrist itself: --pivot is "
+                         "for DON")
+    return CNNObservation(env, keep_frame=False, **params)
+
+
 # Estimator name -> (wrap the env so obs["estimate"] holds its output, frames it needs
 # before its first real estimate). Another estimator is one more entry.
 ESTIMATOR_WRAPPERS: dict[str, tuple[Callable[[gym.Env, dict[str, Any]], gym.Env],
                                     Callable[[dict[str, Any]], int]]] = {
     "don": (_don, _don_frames_needed),
+    "cnn": (_cnn, lambda params: 1),  # reads each frame alone
 }
 
 
