@@ -9,7 +9,7 @@ import numpy as np
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
 from imimic_gym.envs.imitate_video import MODALITIES, depth_to_frame
-from imimic_gym.metrics import angle_rmse_deg, lag_frames
+from imimic_gym.metrics import OCCLUDED, angle_rmse_deg, lag_frames
 
 __all__ = ["ESTIMATORS", "WARM_UP_S", "evaluate_estimator", "make_estimator"]
 
@@ -75,7 +75,7 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
             "lag_frames": lag_frames(truth[warm:], angles[warm:]),
             "mean_trust": float(np.mean([e.trust for e in estimates])),
         }
-        occluded = clip.truth.occlusion > 0.1
+        occluded = clip.truth.occlusion > OCCLUDED
         row["occluded_frames"] = int(occluded.sum())
         if occluded.any() and not occluded.all():
             trust = np.array([e.trust for e in estimates])

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from imimic_gym.metrics import wrap_angle
+from imimic_gym.metrics import OCCLUDED, wrap_angle
 from imimic_gym.rollout import Trajectory
 
 __all__ = ["plot_tracking"]
@@ -34,7 +34,7 @@ def plot_tracking(trajectory: Trajectory, path: str | Path, title: str = "",
         ax_angle.plot(t, human[:, j], color=c, lw=2, alpha=0.45, label=f"{target_label} q{j + 1}")
         ax_angle.plot(t, robot[:, j], color=c, lw=1.2, ls="--", label=f"robot q{j + 1}")
         ax_error.plot(t, error[:, j], color=c, lw=1.2, label=f"q{j + 1}")
-    hidden = trajectory.occlusion > 0.1
+    hidden = trajectory.occlusion > OCCLUDED
     for ax in (ax_angle, ax_error):
         if hidden.any():
             ax.fill_between(t, 0, 1, where=hidden, color="grey", alpha=0.15,
