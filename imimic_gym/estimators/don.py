@@ -53,6 +53,10 @@ from imimic_gym.metrics import wrap_angle
 
 __all__ = ["DON", "FrameShapeError", "SlidingExtrema"]
 
+# How far (working px) a moving region may reach back past the pivot and still be the
+# link: a sliver of l_1 starts at the pivot, give or take the link's rounded end.
+REACH_BACK_PX = 2.0
+
 def _any_channel_above(difference: np.ndarray, tau: int) -> np.ndarray:
     """(H, W) uint8, nonzero where some colour channel of ``difference`` exceeds ``tau``.
     Thresholding each channel, then converting to grey (positive exactly where any channel
@@ -263,7 +267,7 @@ class DON:
             self.extrema.push(image)
             pivot = None if self.known_pivot is None else self.known_pivot / self.scale
             self.link = LinkTracker(self.reference_direction, pivot, self.joint_range,
-                                    self.min_area)
+                                    self.min_area, reach_back=REACH_BACK_PX)
             return self.estimate
         mask = self._moving_pixels(image)
         self.last_mask = mask

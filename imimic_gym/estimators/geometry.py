@@ -148,12 +148,19 @@ class LinkTracker:
         pivot: the pivot (working pixels), if known; else estimated from the masks.
         joint_range: the joint's (low, high) limits (rad), if known.
         min_area: fewest pixels a moving region needs to count.
+        reach_back: how far (px) a region may reach back past the pivot and still be the
+            link; None: any. Frame differences of a turning link are slivers that start
+            at the pivot, so DON sets it; a whole-object mask (MOG2, CamShift) covers
+            the link's rounded end around the pivot, and its extent along the axis is
+            only estimated, so the baselines leave it off.
     """
 
     def __init__(self, reference_direction: float = 0.0, pivot: np.ndarray | None = None,
-                 joint_range: tuple[float, float] | None = None, min_area: int = 12) -> None:
+                 joint_range: tuple[float, float] | None = None, min_area: int = 12,
+                 reach_back: float | None = None) -> None:
         self.reference_direction, self.known_pivot = reference_direction, pivot
         self.joint_range, self.min_area = joint_range, min_area
+        self.reach_back = reach_back
         # Where the link can point: (middle direction, half-width) in rad, the joint's
         # range plus a margin for a pivot a few pixels off.
         self.directions: tuple[float, float] | None = None
@@ -198,10 +205,13 @@ class LinkTracker:
 
         A region belongs to the link when it is clearly elongated and its principal axis
         points at the pivot within ~14 degrees (it lies along a ray: the link's leading and
-        trailing slivers do, a distractor's blob seldom does), it is no farther than 1.6
-        link radii, it lies where the joint can turn (its range, if known, plus 20
-        degrees), and within 45 degrees of the last direction (a gate dropped after 5
-        frames without a match, so a wrong lock cannot last). The direction is the
+        trailing slivers do, a distractor's blob seldom does), it does not reach back past
+        the pivot by more than ``reach_back`` px (an occluder's edge sweeping across the
+        joint does), it is no farther
+        than 1.6 link radii, it lies where the joint can turn (its range, if known, plus
+        20 degrees), and within 45 degrees of the last direction. The radius and direction
+        gates are both dropped after 5 frames without a match, so neither a wrong lock nor
+        a radius measured on a stray early region can last. The direction is the
         mean of those regions' axes weighted by length times area, pointed away from the
         pivot: an axis does not tilt when the pivot is a few pixels off, as a
         pivot-to-pixel angle would.
@@ -217,7 +227,11 @@ class LinkTracker:
         # (a ball, a fist turning) says nothing about a direction.
         keep = (miss < np.maximum(4.0, 0.25 * distance)) & (distance > 2.0)
         keep &= (length > 2.5) & (lines[:, 5] > 2.0)
-        if self.radius is not None:
+        if self.reach_back is not None:
+            # A sliver of a turning link starts at its pivot: one reaching back past it
+            # (an occluder's edge sweeping across the joint) is something else.
+            keep &= distance - 1.7 * length > -self.reach_back
+        if self.radius is not None and self.lost_for < 5:
             keep &= distance < 1.6 * self.radius
         centre_angle = np.arctan2(-offset[:, 1], offset[:, 0])  # image y points down
         if self.directions is not None:

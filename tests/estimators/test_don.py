@@ -187,6 +187,35 @@ def test_a_sweeping_board_does_not_drag_a_found_pivot() -> None:
 
 
 
+def test_an_edge_sweeping_across_the_joint_is_not_the_link() -> None:
+    """The bar turns, then rests at its last angle while a tall board sweeps across the
+    scene. Its vertical edges pass through the pivot and point along the joint's range,
+    but they reach far back past the pivot, which a link never does: the estimate stays
+    on the resting bar."""
+    angles = sweep(3.0, 30, start_deg=40)
+    rest = angles[-1]
+    frames = [bar_frame(angle) for angle in angles]
+    for x in range(20, 290, 4):
+        frame = bar_frame(rest)
+        frame[20:230, x:x + 24] = (200, 170, 90)
+        frames.append(frame)
+    estimates = DON(fps=FPS, pivot=tuple(PIVOT), joint_range=(0.0, math.pi)).run(frames)
+    errors = [abs(math.degrees(e.angles[0] - rest)) for e in estimates[30:]]
+    assert max(errors) < 3.0
+
+
+def test_a_radius_measured_on_a_short_first_movement_does_not_lock_the_link_out() -> None:
+    """The first thing that turns is short (a 24 px stub, so r ~ 24); then the full
+    100 px bar turns. The radius gate (1.6 r) would refuse the bar's regions forever;
+    it is dropped after 5 frames without a match, and the bar is followed."""
+    stub, bar = sweep(3.0, 15, start_deg=40), sweep(3.0, 60, start_deg=100)
+    frames = [bar_frame(a, length=24.0) for a in stub] + [bar_frame(a) for a in bar]
+    estimates = DON(fps=FPS, pivot=tuple(PIVOT), joint_range=(0.0, math.pi)).run(frames)
+    errors = [abs(math.degrees(e.angles[0] - a))
+              for e, a in zip(estimates[-30:], bar[-30:], strict=True)]
+    assert max(errors) < 3.0
+
+
 def test_a_board_crossing_the_first_movement_does_not_fix_a_wrong_pivot() -> None:
     """exp3-forearm-low, seed 100: the board sweeps past while the forearm makes its first
     movement. A first pivot is taken only when two solves agree, so the board's edges
