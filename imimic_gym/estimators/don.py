@@ -169,6 +169,7 @@ class DON:
         self.sizes: deque[float | None] = deque(maxlen=self.window)
         self.angle: float | None = None  # absolute image angle of the link, rad
         self.predicting_for = 0
+        self.hidden = False  # the link vanished while turning and has not been seen since
         # Before the arm has moved DON has seen nothing: the middle of the joint's range
         # (if known) is the guess least far from anywhere the arm can be.
         start = (self.reference_direction if self.joint_range is None
@@ -200,7 +201,7 @@ class DON:
     # Layer 4b: trust factor -------------------------------------------------------------
     def trust_factor(self) -> float:
         """eta = 1 - max_p |M_1 - M_p| / max_p M_p, paper Eq. (TF); 1 with fewer than two
-        measurements in the window.
+        measurements in the window, 0 when the link was hidden (size 0) in all of them.
 
         M_p is the link's visible length in frame p: the radial span of the moving regions
         accepted as the link (`LinkTracker.measure`). The paper takes M_p as the area of
@@ -211,9 +212,11 @@ class DON:
         a link whose outer half disappears gives eta = 0.5, the fraction still seen.
         """
         sizes = np.asarray([m for m in self.sizes if m is not None], dtype=np.float64)
-        largest = sizes.max() if sizes.size > 1 else 0.0
-        if largest <= 0:
+        if sizes.size < 2:
             return 1.0
+        largest = sizes.max()
+        if largest <= 0:
+            return 0.0  # hidden for the whole window
         return float(1.0 - np.max(np.abs(sizes[-1] - sizes)) / largest)
 
     # Layer 5: prediction ------------------------------------------------------------------
@@ -276,8 +279,10 @@ class DON:
         area = cv2.countNonZero(mask)
 
         if area < self.min_area:
-            self.sizes.append(None)
-            return self._hold(trust=1.0)  # nothing moved, nothing to distrust
+            # Nothing moved: nothing to distrust, unless the link vanished while turning
+            # and has not been seen since (it is still hidden, resting or not).
+            self.sizes.append(0.0 if self.hidden else None)
+            return self._hold(trust=self.trust_factor() if self.hidden else 1.0)
 
         lines = self.link.lines(mask)
         pivot = self.link.pivot()
@@ -290,11 +295,14 @@ class DON:
         measured = self.link.measure(lines, pivot, self.angle)
         if measured is None:
             # Motion, but none along the link. If the link was turning, it is hidden (size
-            # 0, eta says so); if it was at rest, this is a distractor (no size). Either way
-            # there is nothing to roll the prediction on from: hold.
-            self.sizes.append(0.0 if self._was_moving() else None)
+            # 0, eta says so, until the link is seen again); if it was at rest, this is a
+            # distractor (no size). Either way there is nothing to roll the prediction on
+            # from: hold.
+            self.hidden = self.hidden or self._was_moving()
+            self.sizes.append(0.0 if self.hidden else None)
             return self._hold(trust=self.trust_factor())
         location, visible_length = measured
+        self.hidden = False
         self.sizes.append(visible_length)
         trust = self.trust_factor()
         predicted = trust < self.trust_threshold and self.angle is not None

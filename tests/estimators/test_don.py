@@ -100,6 +100,23 @@ def test_an_occluder_hiding_the_outer_part_of_the_link_gives_its_eta(
     assert low <= min(trust[41:49]) and max(trust[41:49]) <= high
 
 
+@pytest.mark.parametrize("distractor", [False, True])
+def test_a_link_hidden_for_longer_than_the_window_stays_distrusted(distractor: bool) -> None:
+    """The turning bar disappears behind a static black board at frame 40 and stays there
+    for 30 frames (three windows), with nothing else moving or with a dot moving in a
+    corner. eta stays 0 until the link is seen again; it does not drift back to 1 once the
+    last measurement has left the window."""
+    angles = [math.radians(30 + 2.0 * i) for i in range(70)]
+    frames = [bar_frame(a) for a in angles]
+    for i, frame in enumerate(frames[40:]):
+        frame[:] = 0
+        if distractor:
+            cv2.circle(frame, (20 + 2 * i, 20), 4, (255, 255, 255), -1)
+    trust = [e.trust for e in DON(fps=FPS).run(frames)]
+    assert min(trust[30:40]) > 0.85
+    assert max(trust[41:]) < 0.05
+
+
 def test_a_region_where_the_joint_cannot_turn_is_not_the_link() -> None:
     """A second bar turns the other way on the far side of the pivot, along a ray through
     it: without a joint range it can pass for the link (a flipped reading), with the range
