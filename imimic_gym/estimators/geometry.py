@@ -23,38 +23,51 @@ RANGE_MARGIN_DEG = 20.0  # how far past its joint range a region may still be th
 
 def component_lines(mask: np.ndarray, min_area: int) -> np.ndarray:
     """Principal axis of every 8-connected component of ``mask`` with at least
-    ``min_area`` pixels, from its second moments in one vectorised pass.
+    ``min_area`` pixels, from its second moments.
 
-    Returns (k, 7) float64 rows: centre x, centre y, direction x, direction y, length (std
-    along the axis, px), elongation (major/minor std ratio), area (px).
+    ``mask``: (h, w) uint8 (or bool), nonzero where a pixel moves.
+    Returns (k, 7) float64 rows, in OpenCV's label order: centre x, centre y, direction x,
+    direction y, length (std along the axis, px), elongation (major/minor std ratio),
+    area (px).
     """
     mask = mask.view(np.uint8)
-    count, labels = cv2.connectedComponents(mask, connectivity=8)
-    points = cv2.findNonZero(mask)  # x, y in row-major order, 3x faster than np.nonzero
-    if points is None:
+    left, top, width, height = cv2.boundingRect(mask)
+    if width == 0:
         return np.zeros((0, 7))
-    points = points.reshape(-1, 2)
-    xs, ys = points[:, 0], points[:, 1]
-    label = labels[ys, xs]
-    n = np.bincount(label, minlength=count).astype(np.float64)
-    keep = n >= max(min_area, 2)
-    keep[0] = False
-    if not keep.any():
+    # Label only the moving pixels' bounding box, cropped from even coordinates: OpenCV
+    # numbers 8-connected components in the raster order of 2x2 blocks, so the crop
+    # numbers them exactly as the whole mask would, for a quarter of the pixels.
+    right, bottom = left + width, top + height
+    left, top = left & ~1, top & ~1
+    crop = mask[top:bottom, left:right]
+    count, labels = cv2.connectedComponents(crop, connectivity=8)
+    points = cv2.findNonZero(crop).reshape(-1, 2)  # x, y in row-major order
+    label = labels.ravel().take(points[:, 1] * labels.shape[1] + points[:, 0])
+    area = np.bincount(label, minlength=count)
+    area[0] = 0  # the background
+    kept = np.flatnonzero(area >= max(min_area, 2))
+    if len(kept) == 0:
         return np.zeros((0, 7))
-    x, y = xs.astype(np.float64), ys.astype(np.float64)
-    sx, sy = np.bincount(label, x, count), np.bincount(label, y, count)
-    sxx, syy = np.bincount(label, x * x, count), np.bincount(label, y * y, count)
-    sxy = np.bincount(label, x * y, count)
-    n, sx, sy, sxx, syy, sxy = (v[keep] for v in (n, sx, sy, sxx, syy, sxy))
+    # Raw moments per region: sums of x, y, x^2, y^2, xy over its pixels (exact: integers).
+    x, y = points[:, 0] + float(left), points[:, 1] + float(top)
+    sums = [np.bincount(label, w, count)[kept].tolist() for w in (x, y, x * x, y * y, x * y)]
+    return np.array([_principal_axis(float(area[i]), *moments)
+                     for i, *moments in zip(kept.tolist(), *sums, strict=True)])
+
+
+def _principal_axis(n: float, sx: float, sy: float, sxx: float, syy: float,
+                    sxy: float) -> tuple[float, ...]:
+    """One row of `component_lines` from a region's raw moments (pixel count n, sums of
+    x, y, x^2, y^2, xy). Scalar math: a frame has one or two regions, and numpy's
+    per-call cost on 1-element arrays is ten times the arithmetic."""
     cx, cy = sx / n, sy / n
-    a, c, b = sxx / n - cx**2, syy / n - cy**2, sxy / n - cx * cy
-    half_gap = np.sqrt(((a - c) / 2) ** 2 + b**2)
-    major, minor = (a + c) / 2 + half_gap, np.maximum((a + c) / 2 - half_gap, 1e-9)
-    theta = 0.5 * np.arctan2(2 * b, a - c)
-    out = np.empty((len(n), 7))
-    out[:, 0], out[:, 1], out[:, 2], out[:, 3] = cx, cy, np.cos(theta), np.sin(theta)
-    out[:, 4], out[:, 5], out[:, 6] = np.sqrt(major), np.sqrt(major / minor), n
-    return out
+    a, c, b = sxx / n - cx * cx, syy / n - cy * cy, sxy / n - cx * cy
+    half = (a - c) / 2
+    half_gap = math.sqrt(half * half + b * b)
+    major, minor = (a + c) / 2 + half_gap, max((a + c) / 2 - half_gap, 1e-9)
+    theta = 0.5 * float(np.arctan2(2 * b, a - c))  # math.atan2 differs in the last bit
+    return (cx, cy, math.cos(theta), math.sin(theta), math.sqrt(major),
+            math.sqrt(major / minor), n)
 
 
 class PivotEstimator:
