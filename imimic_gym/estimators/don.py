@@ -247,7 +247,7 @@ class DON:
         if keypoints is not None:
             keypoints = keypoints * self.scale
         return Estimate(angles=angles, omega=omegas, alpha=alphas, torque=torque,
-                        trust=float(np.clip(trust, 0.0, 1.0)), predicted=predicted,
+                        trust=min(max(float(trust), 0.0), 1.0), predicted=predicted,
                         keypoints=keypoints)
 
     def _hold(self, trust: float) -> Estimate:
