@@ -8,6 +8,7 @@ counter-clockwise with the image's y axis pointing up.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import deque
 
@@ -70,6 +71,15 @@ def _principal_axis(n: float, sx: float, sy: float, sxx: float, syy: float,
             math.sqrt(major / minor), n)
 
 
+@functools.cache
+def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Indices (i, j), i < j, of every pair of n lines (read-only: shared by every solve,
+    which sees the same few n)."""
+    i, j = np.triu_indices(n, k=1)
+    i.flags.writeable = j.flags.writeable = False
+    return i, j
+
+
 class PivotEstimator:
     """The point where the link's lines meet: the mode of the pairwise intersections of
     the last ``memory`` lines. Lines of the turning link all cross at the pivot; lines of
@@ -123,14 +133,15 @@ class PivotEstimator:
         10 degrees (mean shift from their median), if at least 20 such pairs exist."""
         lines = np.array(self.lines)
         centre, direction, weight = lines[:, 0:2], lines[:, 2:4], lines[:, 4]
-        i, j = np.triu_indices(len(lines), k=1)
-        cross = direction[i, 0] * direction[j, 1] - direction[i, 1] * direction[j, 0]
+        i, j = _pairs(len(lines))
+        dx, dy = lines[:, 2].copy(), lines[:, 3].copy()  # 1-d gathers are 3x cheaper
+        cross = dx[i] * dy[j] - dy[i] * dx[j]
         good = np.abs(cross) > math.sin(math.radians(10))
         if np.count_nonzero(good) < 20:
             return None
         i, j, cross = i[good], j[good], cross[good]
         delta = centre[j] - centre[i]
-        along_i = (delta[:, 0] * direction[j, 1] - delta[:, 1] * direction[j, 0]) / cross
+        along_i = (delta[:, 0] * dy[j] - delta[:, 1] * dx[j]) / cross
         points = centre[i] + along_i[:, None] * direction[i]
         weights = weight[i] * weight[j]
         if self.directions is not None:
@@ -144,12 +155,14 @@ class PivotEstimator:
             if np.count_nonzero(ok) < 20:
                 return None
             points, weights = points[ok], weights[ok]
-        point = np.array([np.median(points[:, 0]), np.median(points[:, 1])])
+        point = np.median(points, axis=0)
         for radius in (16.0, 8.0, 4.0, 4.0):  # shrinking mean shift toward the mode
             near = np.hypot(*(points - point).T) < radius
             if not near.any():
                 break
-            point = np.average(points[near], axis=0, weights=weights[near])
+            # np.average's arithmetic without its argument checks (a third of a solve)
+            near_weights = weights[near]
+            point = (points[near] * near_weights[:, None]).sum(axis=0) / near_weights.sum()
         return point
 
 
