@@ -221,13 +221,13 @@ class DON:
         stays the link's length at any speed. An occluder hides part of it, and M_1 drops:
         a link whose outer half disappears gives eta = 0.5, the fraction still seen.
         """
-        sizes = np.asarray([m for m in self.sizes if m is not None], dtype=np.float64)
-        if sizes.size < 2:
+        sizes = [m for m in self.sizes if m is not None]  # at most N floats: no numpy
+        if len(sizes) < 2:
             return 1.0
-        largest = sizes.max()
+        largest = max(sizes)
         if largest <= 0:
             return 0.0  # hidden for the whole window
-        return float(1.0 - np.max(np.abs(sizes[-1] - sizes)) / largest)
+        return 1.0 - max(abs(sizes[-1] - m) for m in sizes) / largest
 
     # Layer 5: prediction ------------------------------------------------------------------
     def _predict(self) -> float:
