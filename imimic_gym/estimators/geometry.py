@@ -242,50 +242,54 @@ class LinkTracker:
         pivot: an axis does not tilt when the pivot is a few pixels off, as a
         pivot-to-pixel angle would.
         """
-        if len(lines) == 0:
-            return None
-        centre, direction = lines[:, 0:2], lines[:, 2:4]
-        length, area = lines[:, 4], lines[:, 6]
-        offset = centre - pivot
-        distance = np.hypot(offset[:, 0], offset[:, 1])
-        miss = np.abs(offset[:, 0] * direction[:, 1] - offset[:, 1] * direction[:, 0])
-        # Along a ray from the pivot within ~14 degrees, and clearly elongated: a round blob
-        # (a ball, a fist turning) says nothing about a direction.
-        keep = (miss < np.maximum(4.0, 0.25 * distance)) & (distance > 2.0)
-        keep &= (length > 2.5) & (lines[:, 5] > 2.0)
-        if self.reach_back is not None:
+        # Region by region in scalars: a frame has a few regions, and numpy's per-call cost
+        # on arrays that short was most of this method's time. Square roots and arctangents
+        # stay numpy's: math's differ from them in the last bit.
+        px, py = float(pivot[0]), float(pivot[1])
+        if self.directions is not None:
+            middle, half_width = float(self.directions[0]), float(self.directions[1])
+        gated = self.lost_for < 5  # the radius and direction gates
+        kept = []  # (index, outward direction, weight, distance, length)
+        for index, (cx, cy, dx, dy, length, elongation, area) in enumerate(lines.tolist()):
+            ox, oy = cx - px, cy - py
+            distance = float(np.hypot(ox, oy))
+            # Along a ray from the pivot within ~14 degrees, and clearly elongated: a round
+            # blob (a ball, a fist turning) says nothing about a direction.
+            if not (abs(ox * dy - oy * dx) < max(4.0, 0.25 * distance) and distance > 2.0
+                    and length > 2.5 and elongation > 2.0):
+                continue
             # A sliver of a turning link starts at its pivot: one reaching back past it
             # (an occluder's edge sweeping across the joint) is something else.
-            keep &= distance - 1.7 * length > -self.reach_back
-        if self.radius is not None and self.lost_for < 5:
-            keep &= distance < 1.6 * self.radius
-        centre_angle = np.arctan2(-offset[:, 1], offset[:, 0])  # image y points down
-        if self.directions is not None:
+            if self.reach_back is not None and not distance - 1.7 * length > -self.reach_back:
+                continue
+            if self.radius is not None and gated and not distance < 1.6 * self.radius:
+                continue
+            centre_angle = float(np.arctan2(-oy, ox))  # image y points down
             # The link cannot point where its joint cannot turn: an occluder's edge or a
             # flipped reading there is not the link.
-            middle, half_width = self.directions
-            keep &= np.abs(wrap_angle(centre_angle - middle)) < half_width
-        if last is not None and self.lost_for < 5:
-            keep &= np.abs(wrap_angle(centre_angle - last)) < math.radians(45)
-        if not keep.any():
+            if self.directions is not None and not abs(
+                    wrap_angle(centre_angle - middle)) < half_width:
+                continue
+            if last is not None and gated and not abs(
+                    wrap_angle(centre_angle - last)) < math.radians(45):
+                continue
+            # Axes point from the pivot outward; y flips to the CCW, image-up convention.
+            if dx * ox + dy * oy < 0:
+                dx, dy = -dx, -dy
+            kept.append((index, float(np.arctan2(-dy, dx)), length * area, distance, length))
+        if not kept:
             self.lost_for += 1
             return None
         self.lost_for = 0
         if self.known_pivot is None:
-            for line in lines[keep]:
-                self.pivots.add_line(line)
-        # Axes point from the pivot outward; y flips to the CCW, image-up convention.
-        outward = np.where((np.einsum("ij,ij->i", direction, offset) < 0)[:, None],
-                           -direction, direction)[keep]
-        angles = np.arctan2(-outward[:, 1], outward[:, 0])
-        weights = (length * area)[keep]
-        mean = math.atan2(float(np.sum(weights * np.sin(angles))),
-                          float(np.sum(weights * np.cos(angles))))
-        outer = distance[keep] + 1.7 * length[keep]
-        inner = np.maximum(distance[keep] - 1.7 * length[keep], 0.0)
-        reach = float(outer.max())
+            for index, *_ in kept:
+                self.pivots.add_line(lines[index])
+        mean = math.atan2(sum(weight * math.sin(angle) for _, angle, weight, _, _ in kept),
+                          sum(weight * math.cos(angle) for _, angle, weight, _, _ in kept))
+        reach = max(distance + 1.7 * length for *_, distance, length in kept)
+        inner = min(max(distance - 1.7 * length, 0.0) for *_, distance, length in kept)
         self.radius = reach if self.radius is None else 0.9 * self.radius + 0.1 * reach
-        return mean, reach - float(inner.min())
+        return mean, reach - inner
 
     def before_pivot(self, lines: np.ndarray) -> float | None:
         """Until the pivot is found: the longest elongated region's axis (rad), pointed
