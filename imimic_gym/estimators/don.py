@@ -194,8 +194,8 @@ class DON:
         # from some f_{t-p} exactly when it rises above the window's minimum or falls below
         # its maximum, so one saturating difference each, merged, covers every delta2_p.
         delta1 = _any_channel_above(cv2.absdiff(image, self.previous), tau)
-        # The union matters only where delta1 is set: within its bounding box, typically a
-        # quarter of the frame (and nothing at all on a still frame).
+        # The union matters only where delta1 is set: within its bounding box (2-40% of
+        # the frame in the rendered scenarios; nothing at all on a still frame).
         left, top, width, height = cv2.boundingRect(delta1)
         if width == 0:
             return delta1
