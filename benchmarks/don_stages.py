@@ -3,9 +3,9 @@
 Runs DON over the bench's frames (default scenario, 90 frames, one OpenCV thread), with
 each stage's method wrapped in a timer, ``--repeats`` times; a stage's figure is its
 smallest total over the runs, per frame (the machine is shared: the least disturbed run
-is the closest to the cost). The wrappers add about 0.2 us per call, so the stages sum
-to a little more than an unwrapped run, timed separately (median and minimum) beside
-raw OpenCV MOG2 on the same frames. Usage:
+is the closest to the cost). Each wrapper adds its own cost per call (measured on a no-op
+and reported), so the stages sum to a little more than an unwrapped run, timed separately
+(median and minimum) beside raw OpenCV MOG2 on the same frames. Usage:
 
     .venv/bin/python benchmarks/don_stages.py --json benchmarks/results/don_stages.json
 """
@@ -16,6 +16,7 @@ import argparse
 import functools
 import json
 import time
+import timeit
 from collections.abc import Callable
 from pathlib import Path
 
@@ -55,6 +56,18 @@ def _timed(function: Callable, totals: dict[str, float], name: str) -> Callable:
         finally:
             totals[name] += time.perf_counter() - start
     return wrapper
+
+
+def timer_overhead_us(calls: int = 100_000) -> float:
+    """What one timer wrapper adds to a call, us: a wrapped no-op against the bare one
+    (least of 5 rounds each)."""
+    def no_op() -> None:
+        return None
+
+    wrapped = _timed(no_op, {"no-op": 0.0}, "no-op")
+    bare, timed = (min(timeit.repeat(fn, number=calls, repeat=5)) / calls * 1e6
+                   for fn in (no_op, wrapped))
+    return timed - bare
 
 
 def stage_times(clip_frames: np.ndarray, repeats: int) -> dict[str, float]:
@@ -105,6 +118,7 @@ def main() -> None:
                                   n_frames=90), progress=False)
     don.DON().run(clip.frames)  # warm-up
     stages = stage_times(clip.frames, args.repeats)
+    overhead = timer_overhead_us()
     runs = whole_runs_ms(clip.frames, args.repeats)
     summary = {f"{name}_ms_{stat.__name__}": float(stat(times))
                for name, times in runs.items() for stat in (np.median, np.min)}
@@ -112,6 +126,7 @@ def main() -> None:
     summary["ratio_mog2_min"] = summary["don_ms_min"] / summary["mog2_raw_ms_min"]
     for name, us in stages.items():
         print(f"{name:48s} {us:7.1f} us/frame")
+    print(f"(each timer adds {overhead:.2f} us per call)")
     print(f"DON {summary['don_ms_median']:.3f} ms/frame (min {summary['don_ms_min']:.3f}), "
           f"raw MOG2 {summary['mog2_raw_ms_median']:.3f} (min {summary['mog2_raw_ms_min']:.3f})"
           f": ratio {summary['ratio_mog2_median']:.3f} (of minima {summary['ratio_mog2_min']:.3f})")
@@ -119,6 +134,7 @@ def main() -> None:
         args.json.write_text(json.dumps({
             "machine": machine(), "resolution": f"{args.height}x{args.width}", "frames": 90,
             "repeats": args.repeats, "opencv_threads": 1, "stages_us_per_frame": stages,
+            "timer_overhead_us_per_call": overhead,
             **summary}, indent=2) + "\n")
 
 
