@@ -160,7 +160,8 @@ the prediction layer is implemented but off by default (see below).
 
 Command: `.venv/bin/imimic bench don --json benchmarks/results/don.json`
 
-Milliseconds per frame, one OpenCV thread, the same rendered frames of the `default`
+CPU milliseconds per frame (the process's CPU time: what the OS gives other jobs on this
+shared machine is not counted), one OpenCV thread, the same rendered frames of the `default`
 scenario ({don['frames']} frames), median of {don['repeats']} alternating runs. "MOG2 raw" is OpenCV's
 `BackgroundSubtractorMOG2.apply` on the full frame (the paper's comparison); the
 "estimator" columns are the full baselines (working resolution, link geometry) used in
