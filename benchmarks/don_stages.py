@@ -5,7 +5,7 @@ each stage's method wrapped in a timer, ``--repeats`` times; a stage's figure is
 smallest total over the runs, per frame (the machine is shared: the least disturbed run
 is the closest to the cost). Each wrapper adds its own cost per call (measured on a no-op
 and reported), so the stages sum to a little more than an unwrapped run, timed separately
-(median and minimum) beside raw OpenCV MOG2 on the same frames. Usage:
+(CPU time, median and minimum) beside raw OpenCV MOG2 on the same frames. Usage:
 
     .venv/bin/python benchmarks/don_stages.py --json benchmarks/results/don_stages.json
 """
@@ -90,8 +90,8 @@ def stage_times(clip_frames: np.ndarray, repeats: int) -> dict[str, float]:
 
 
 def whole_runs_ms(clip_frames: np.ndarray, repeats: int) -> dict[str, list[float]]:
-    """ms per frame of unwrapped DON and of raw MOG2 (``apply`` on the full frame),
-    alternating, ``repeats`` runs each."""
+    """CPU ms per frame (as `imimic bench don` times them) of unwrapped DON and of raw
+    MOG2 (``apply`` on the full frame), alternating, ``repeats`` runs each."""
     def raw_mog2(frames_: np.ndarray) -> None:
         subtractor = cv2.createBackgroundSubtractorMOG2(detectShadows=False)
         for frame in frames_:
@@ -100,9 +100,9 @@ def whole_runs_ms(clip_frames: np.ndarray, repeats: int) -> dict[str, list[float
     runs: dict[str, list[float]] = {"don": [], "mog2_raw": []}
     for _ in range(repeats):
         for name, run in (("don", lambda f: don.DON().run(f)), ("mog2_raw", raw_mog2)):
-            start = time.perf_counter()
+            start = time.process_time()
             run(clip_frames)
-            runs[name].append((time.perf_counter() - start) / len(clip_frames) * 1e3)
+            runs[name].append((time.process_time() - start) / len(clip_frames) * 1e3)
     return runs
 
 
