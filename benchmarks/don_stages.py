@@ -3,9 +3,10 @@
 Runs DON over the bench's frames (default scenario, 90 frames, one OpenCV thread), with
 each stage's method wrapped in a timer, ``--repeats`` times; a stage's figure is its
 smallest total over the runs, per frame (the machine is shared: the least disturbed run
-is the closest to the cost). Each wrapper adds its own cost per call (measured on a no-op
-and reported), so the stages sum to a little more than an unwrapped run, timed separately
-(CPU time, median and minimum) beside raw OpenCV MOG2 on the same frames. Usage:
+is the closest to the cost; so the stages' figures come from different runs and are not
+summed). Each wrapper adds its own cost per call (measured on a no-op and reported). The
+whole frame is timed unwrapped (CPU time, median and minimum of as many runs) beside raw
+OpenCV MOG2 on the same frames. Usage:
 
     .venv/bin/python benchmarks/don_stages.py --json benchmarks/results/don_stages.json
 """
@@ -43,7 +44,6 @@ STAGES = (
     (motion.PathEstimator, "omega", "layer 4a: omega"),
     (motion.PathEstimator, "alpha", "layer 4a: alpha"),
     (don.DON, "_estimate", "Estimate (+ keypoints)"),
-    (don.DON, "update", "whole update"),
 )
 
 

@@ -20,7 +20,13 @@ def render(load: Callable[[str], dict],
     identical = ("bit-identical: every field of every estimate, and every frame's count of "
                  "moving pixels, equal to the last bit" if same["bit_identical"]
                  else f"not bit-identical; largest differences: {differences}")
+    bench = next(row for row in load("don")["rows"] if row["resolution"] == after["resolution"])
     return f"""
+At {after['resolution']} the margin is small: with another job running on this 2-core machine,
+DON / raw MOG2 there measured {bench['ratio_mog2']:.2f} in the bench above and
+{after['ratio_mog2_median']:.2f} (medians; {after['ratio_mog2_min']:.2f} of minima) over
+{after['repeats']} alternations of the stage script below.
+
 Where DON's time goes at {after['resolution']}. Command: `.venv/bin/python benchmarks/don_stages.py
 --json benchmarks/results/don_stages.json`, and the same script run on the code before the speed
 work (`git archive {same['base_commit'][:10]} imimic_gym` unpacked into a folder on
