@@ -43,14 +43,20 @@ def component_lines(mask: np.ndarray, min_area: int) -> np.ndarray:
     crop = mask[top:bottom, left:right]
     count, labels = cv2.connectedComponents(crop, connectivity=8)
     points = cv2.findNonZero(crop).reshape(-1, 2)  # x, y in row-major order
+    # Raw moments per region: sums of x, y, x^2, y^2, xy over its pixels (exact: integers,
+    # in any order of summation).
+    x, y = points[:, 0] + float(left), points[:, 1] + float(top)
+    if count == 2:  # one region, most frames: every pixel is in it
+        if len(points) < max(min_area, 2):
+            return np.zeros((0, 7))
+        moments = (x.sum(), y.sum(), x @ x, y @ y, x @ y)
+        return np.array([_principal_axis(float(len(points)), *map(float, moments))])
     label = labels.ravel().take(points[:, 1] * labels.shape[1] + points[:, 0])
     area = np.bincount(label, minlength=count)
     area[0] = 0  # the background
     kept = np.flatnonzero(area >= max(min_area, 2))
     if len(kept) == 0:
         return np.zeros((0, 7))
-    # Raw moments per region: sums of x, y, x^2, y^2, xy over its pixels (exact: integers).
-    x, y = points[:, 0] + float(left), points[:, 1] + float(top)
     sums = [np.bincount(label, w, count)[kept].tolist() for w in (x, y, x * x, y * y, x * y)]
     return np.array([_principal_axis(float(area[i]), *moments)
                      for i, *moments in zip(kept.tolist(), *sums, strict=True)])

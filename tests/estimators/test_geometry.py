@@ -62,3 +62,12 @@ def test_component_lines_match_moments_of_the_whole_mask(seed: int) -> None:
 
 def test_component_lines_of_an_empty_mask_are_empty() -> None:
     assert component_lines(np.zeros((12, 16), dtype=np.uint8), min_area=1).shape == (0, 7)
+
+
+def test_a_lone_region_counts_from_min_area_on() -> None:
+    mask = np.zeros((20, 30), dtype=np.uint8)
+    mask[7:9, 11:17] = 255  # 2 x 6 bar, 12 pixels, centre (13.5, 7.5)
+    assert component_lines(mask, min_area=13).shape == (0, 7)
+    (line,) = component_lines(mask, min_area=12)
+    assert line[[0, 1, 6]].tolist() == [13.5, 7.5, 12.0]
+    assert line[4] == pytest.approx(math.sqrt(35 / 12))  # std of 6 uniform pixels
