@@ -44,7 +44,8 @@ per frame (medians; minima {before['don_ms_min']:.3f} -> {after['don_ms_min']:.3
 MOG2's {before['mog2_raw_ms_median']:.3f} and {after['mog2_raw_ms_median']:.3f}: ratio
 {before['ratio_mog2_median']:.3f} -> {after['ratio_mog2_median']:.3f}. What changed: moving
 regions are labelled inside their bounding box (cropped on even coordinates, so OpenCV numbers
-them as before) and their moments summed as exact integers; the union of delta2 is formed only
+them as before) and their moments summed as exact integers (directly when the box holds one
+region); the union of delta2 is formed only
 inside delta1's bounding box; the link's location, the trust factor, the principal axes and the
 estimate's checks run in scalar arithmetic instead of numpy calls on 1- to 3-element arrays; the
 pivot solve reuses its pair indices and skips `np.average`'s checks. What is left is mostly the

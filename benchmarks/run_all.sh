@@ -41,10 +41,10 @@ fi
 # its estimates compared field by field with that commit.
 "$BIN/python" benchmarks/don_stages.py --json benchmarks/results/don_stages.json
 before=$(mktemp -d)
-git archive f84442d imimic_gym | tar -x -C "$before"
+git archive fcce9b4 imimic_gym | tar -x -C "$before"
 PYTHONPATH="$before" "$BIN/python" benchmarks/don_stages.py \
     --json benchmarks/results/don_stages_before.json
 rm -rf "$before"
-"$BIN/python" benchmarks/don_same_estimates.py --base f84442d \
+"$BIN/python" benchmarks/don_same_estimates.py --base fcce9b4 \
     --json benchmarks/results/don_same_estimates.json
 "$BIN/python" benchmarks/write_results.py
