@@ -199,7 +199,7 @@ def don_window_and_lighting(out_prefix: str, frames: int = 90) -> dict[str, Any]
         areas.append(total / len(lit) * don.scale**2)  # in input pixels per frame
     for name, x, y, labels in (
         ("window", windows, window_ms, ("frames in the input layer, N",
-                                        "ms per frame (240x320, 1 thread)",
+                                        "CPU ms per frame (240x320, 1 thread)",
                                         "DON: computation time vs N (paper Fig. 3a)")),
         ("lighting", lighting, areas, ("light intensity", "moving pixels detected per frame",
                                        "DON: detected area vs light (paper Fig. 3b)")),
