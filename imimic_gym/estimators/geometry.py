@@ -49,7 +49,8 @@ def component_lines(mask: np.ndarray, min_area: int) -> np.ndarray:
     if count == 2:  # one region, most frames: every pixel is in it
         if len(points) < max(min_area, 2):
             return np.zeros((0, 7))
-        moments = (x.sum(), y.sum(), x @ x, y @ y, x @ y)
+        # Not x @ x: BLAS would start its threads on a large region, and they spin on.
+        moments = (x.sum(), y.sum(), (x * x).sum(), (y * y).sum(), (x * y).sum())
         return np.array([_principal_axis(float(len(points)), *map(float, moments))])
     label = labels.ravel().take(points[:, 1] * labels.shape[1] + points[:, 0])
     area = np.bincount(label, minlength=count)
