@@ -162,7 +162,7 @@ Command: `.venv/bin/imimic bench don --json benchmarks/results/don.json`
 
 CPU milliseconds per frame (the process's CPU time: what the OS gives other jobs on this
 shared machine is not counted), one OpenCV thread, the same rendered frames of the `default`
-scenario ({don['frames']} frames), median of {don['repeats']} alternating runs. "MOG2 raw" is OpenCV's
+scenario ({don['frames']} frames), median of {don['repeats']} alternating runs after an untimed one. "MOG2 raw" is OpenCV's
 `BackgroundSubtractorMOG2.apply` on the full frame (the paper's comparison); the
 "estimator" columns are the full baselines (working resolution, link geometry) used in
 the accuracy comparison below.
