@@ -49,8 +49,9 @@ region); the union of delta2 is formed only
 inside delta1's bounding box; the link's location, the trust factor, the principal axes and the
 estimate's checks run in scalar arithmetic instead of numpy calls on 1- to 3-element arrays; the
 pivot solve reuses its pair indices and skips `np.average`'s checks. What is left is mostly the
-first layer (downscale of the full frame, then a 5x5 Gaussian: fixed costs of the input), then
-connected components, the sliding extrema and the periodic pivot solve.
+first layer (downscale of the full frame, then a 5x5 Gaussian: a fixed cost of the input), then
+labelling the moving regions (`component_lines`), the differences and sliding extrema, and the
+periodic pivot solve.
 
 Same estimates: `.venv/bin/python benchmarks/don_same_estimates.py --base {same['base']}`
 compares DON at `{same['base_commit'][:10]}` with this tree on {scenarios},
