@@ -10,6 +10,7 @@ import json
 from pathlib import Path
 
 from results_cnn import cnn_section
+from results_don_speed import render as render_don_speed
 from results_tracking import render as render_tracking
 
 HERE = Path(__file__).parent
@@ -159,8 +160,9 @@ the prediction layer is implemented but off by default (see below).
 
 Command: `.venv/bin/imimic bench don --json benchmarks/results/don.json`
 
-Milliseconds per frame, one OpenCV thread, the same rendered frames of the `default`
-scenario ({don['frames']} frames), median of {don['repeats']} alternating runs. "MOG2 raw" is OpenCV's
+CPU milliseconds per frame (the process's CPU time: what the OS gives other jobs on this
+shared machine is not counted), one OpenCV thread, the same rendered frames of the `default`
+scenario ({don['frames']} frames), median of {don['repeats']} alternating runs after an untimed one. "MOG2 raw" is OpenCV's
 `BackgroundSubtractorMOG2.apply` on the full frame (the paper's comparison); the
 "estimator" columns are the full baselines (working resolution, link geometry) used in
 the accuracy comparison below.
@@ -174,12 +176,8 @@ Target: DON at most 0.3x MOG2 at every resolution. {", ".join(
     f"{r['resolution']}: {'met' if r['ratio_mog2'] <= 0.3 else '**not met**'}" for r in don['rows'])}.
 DON's time grows little with the input (it works at 120 rows; only the first downscale
 sees every pixel), raw MOG2's grows with the pixels, so the ratio is worst at the
-smallest size. At 240x320 DON's fraction of a millisecond is spread over many small
-OpenCV and numpy calls per frame (downscale and smoothing, the differences,
-moving-region moments, the link geometry, building the estimate), not one hot spot; in
-repeated runs on this shared machine its ratio to raw MOG2 there has measured between
-0.38 and 0.51. Reaching 0.3 needs fewer, larger array operations per frame.
-
+smallest size.
+{render_don_speed(load, table)}
 Paper Fig. 3 (same command): `benchmarks/results/don_window.png` plots time per frame
 against N from 2 to 20: flat, because the union over the window is kept incrementally
 (the paper's time grows with N). `benchmarks/results/don_lighting.png` plots moving

@@ -259,7 +259,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
 def _bench_don(args: argparse.Namespace, result: dict[str, object]) -> int:
     from imimic_gym.bench import bench_don, don_window_and_lighting
 
-    print("DON, baselines and raw OpenCV MOG2, ms per frame on the same frames, 1 thread...")
+    print("DON, baselines and raw OpenCV MOG2, CPU ms per frame on the same frames, "
+          "1 thread...")
     result.update(bench_don())
     print(f"  {'resolution':11s} {'DON':>7s} {'MOG2 est':>9s} {'CamShift':>9s} "
           f"{'MOG2 raw':>9s} {'DON/MOG2':>9s}")

@@ -8,6 +8,7 @@ counter-clockwise with the image's y axis pointing up.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import deque
 
@@ -23,38 +24,67 @@ RANGE_MARGIN_DEG = 20.0  # how far past its joint range a region may still be th
 
 def component_lines(mask: np.ndarray, min_area: int) -> np.ndarray:
     """Principal axis of every 8-connected component of ``mask`` with at least
-    ``min_area`` pixels, from its second moments in one vectorised pass.
+    ``min_area`` pixels, from its second moments.
 
-    Returns (k, 7) float64 rows: centre x, centre y, direction x, direction y, length (std
-    along the axis, px), elongation (major/minor std ratio), area (px).
+    ``mask``: (h, w) uint8 (or bool), nonzero where a pixel moves.
+    Returns (k, 7) float64 rows, in OpenCV's label order: centre x, centre y, direction x,
+    direction y, length (std along the axis, px), elongation (major/minor std ratio),
+    area (px).
     """
     mask = mask.view(np.uint8)
-    count, labels = cv2.connectedComponents(mask, connectivity=8)
-    points = cv2.findNonZero(mask)  # x, y in row-major order, 3x faster than np.nonzero
-    if points is None:
+    left, top, width, height = cv2.boundingRect(mask)
+    if width == 0:
         return np.zeros((0, 7))
-    points = points.reshape(-1, 2)
-    xs, ys = points[:, 0], points[:, 1]
-    label = labels[ys, xs]
-    n = np.bincount(label, minlength=count).astype(np.float64)
-    keep = n >= max(min_area, 2)
-    keep[0] = False
-    if not keep.any():
+    # Label only the moving pixels' bounding box, cropped from even coordinates: OpenCV
+    # numbers 8-connected components in the raster order of 2x2 blocks, so the crop
+    # numbers them exactly as the whole mask would, for a quarter of the pixels.
+    right, bottom = left + width, top + height
+    left, top = left & ~1, top & ~1
+    crop = mask[top:bottom, left:right]
+    count, labels = cv2.connectedComponents(crop, connectivity=8)
+    points = cv2.findNonZero(crop).reshape(-1, 2)  # x, y in row-major order
+    # Raw moments per region: sums of x, y, x^2, y^2, xy over its pixels (exact: integers,
+    # in any order of summation).
+    x, y = points[:, 0] + float(left), points[:, 1] + float(top)
+    if count == 2:  # one region, most frames: every pixel is in it
+        if len(points) < max(min_area, 2):
+            return np.zeros((0, 7))
+        # Not x @ x: BLAS would start its threads on a large region, and they spin on.
+        moments = (x.sum(), y.sum(), (x * x).sum(), (y * y).sum(), (x * y).sum())
+        return np.array([_principal_axis(float(len(points)), *map(float, moments))])
+    label = labels.ravel().take(points[:, 1] * labels.shape[1] + points[:, 0])
+    area = np.bincount(label, minlength=count)
+    area[0] = 0  # the background
+    kept = np.flatnonzero(area >= max(min_area, 2))
+    if len(kept) == 0:
         return np.zeros((0, 7))
-    x, y = xs.astype(np.float64), ys.astype(np.float64)
-    sx, sy = np.bincount(label, x, count), np.bincount(label, y, count)
-    sxx, syy = np.bincount(label, x * x, count), np.bincount(label, y * y, count)
-    sxy = np.bincount(label, x * y, count)
-    n, sx, sy, sxx, syy, sxy = (v[keep] for v in (n, sx, sy, sxx, syy, sxy))
+    sums = [np.bincount(label, w, count)[kept].tolist() for w in (x, y, x * x, y * y, x * y)]
+    return np.array([_principal_axis(float(area[i]), *moments)
+                     for i, *moments in zip(kept.tolist(), *sums, strict=True)])
+
+
+def _principal_axis(n: float, sx: float, sy: float, sxx: float, syy: float,
+                    sxy: float) -> tuple[float, ...]:
+    """One row of `component_lines` from a region's raw moments (pixel count n, sums of
+    x, y, x^2, y^2, xy). Scalar math: a frame has one or two regions, and numpy's
+    per-call cost on 1-element arrays is ten times the arithmetic."""
     cx, cy = sx / n, sy / n
-    a, c, b = sxx / n - cx**2, syy / n - cy**2, sxy / n - cx * cy
-    half_gap = np.sqrt(((a - c) / 2) ** 2 + b**2)
-    major, minor = (a + c) / 2 + half_gap, np.maximum((a + c) / 2 - half_gap, 1e-9)
-    theta = 0.5 * np.arctan2(2 * b, a - c)
-    out = np.empty((len(n), 7))
-    out[:, 0], out[:, 1], out[:, 2], out[:, 3] = cx, cy, np.cos(theta), np.sin(theta)
-    out[:, 4], out[:, 5], out[:, 6] = np.sqrt(major), np.sqrt(major / minor), n
-    return out
+    a, c, b = sxx / n - cx * cx, syy / n - cy * cy, sxy / n - cx * cy
+    half = (a - c) / 2
+    half_gap = math.sqrt(half * half + b * b)
+    major, minor = (a + c) / 2 + half_gap, max((a + c) / 2 - half_gap, 1e-9)
+    theta = 0.5 * float(np.arctan2(2 * b, a - c))  # math.atan2 differs in the last bit
+    return (cx, cy, math.cos(theta), math.sin(theta), math.sqrt(major),
+            math.sqrt(major / minor), n)
+
+
+@functools.cache
+def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Indices (i, j), i < j, of every pair of n lines (read-only: shared by every solve,
+    which sees the same few n)."""
+    i, j = np.triu_indices(n, k=1)
+    i.flags.writeable = j.flags.writeable = False
+    return i, j
 
 
 class PivotEstimator:
@@ -110,14 +140,15 @@ class PivotEstimator:
         10 degrees (mean shift from their median), if at least 20 such pairs exist."""
         lines = np.array(self.lines)
         centre, direction, weight = lines[:, 0:2], lines[:, 2:4], lines[:, 4]
-        i, j = np.triu_indices(len(lines), k=1)
-        cross = direction[i, 0] * direction[j, 1] - direction[i, 1] * direction[j, 0]
+        i, j = _pairs(len(lines))
+        dx, dy = lines[:, 2].copy(), lines[:, 3].copy()  # 1-d gathers are 3x cheaper
+        cross = dx[i] * dy[j] - dy[i] * dx[j]
         good = np.abs(cross) > math.sin(math.radians(10))
         if np.count_nonzero(good) < 20:
             return None
         i, j, cross = i[good], j[good], cross[good]
         delta = centre[j] - centre[i]
-        along_i = (delta[:, 0] * direction[j, 1] - delta[:, 1] * direction[j, 0]) / cross
+        along_i = (delta[:, 0] * dy[j] - delta[:, 1] * dx[j]) / cross
         points = centre[i] + along_i[:, None] * direction[i]
         weights = weight[i] * weight[j]
         if self.directions is not None:
@@ -131,12 +162,14 @@ class PivotEstimator:
             if np.count_nonzero(ok) < 20:
                 return None
             points, weights = points[ok], weights[ok]
-        point = np.array([np.median(points[:, 0]), np.median(points[:, 1])])
+        point = np.median(points, axis=0)
         for radius in (16.0, 8.0, 4.0, 4.0):  # shrinking mean shift toward the mode
             near = np.hypot(*(points - point).T) < radius
             if not near.any():
                 break
-            point = np.average(points[near], axis=0, weights=weights[near])
+            # np.average's arithmetic without its argument checks (a third of a solve)
+            near_weights = weights[near]
+            point = (points[near] * near_weights[:, None]).sum(axis=0) / near_weights.sum()
         return point
 
 
@@ -216,50 +249,54 @@ class LinkTracker:
         pivot: an axis does not tilt when the pivot is a few pixels off, as a
         pivot-to-pixel angle would.
         """
-        if len(lines) == 0:
-            return None
-        centre, direction = lines[:, 0:2], lines[:, 2:4]
-        length, area = lines[:, 4], lines[:, 6]
-        offset = centre - pivot
-        distance = np.hypot(offset[:, 0], offset[:, 1])
-        miss = np.abs(offset[:, 0] * direction[:, 1] - offset[:, 1] * direction[:, 0])
-        # Along a ray from the pivot within ~14 degrees, and clearly elongated: a round blob
-        # (a ball, a fist turning) says nothing about a direction.
-        keep = (miss < np.maximum(4.0, 0.25 * distance)) & (distance > 2.0)
-        keep &= (length > 2.5) & (lines[:, 5] > 2.0)
-        if self.reach_back is not None:
+        # Region by region in scalars: a frame has a few regions, and numpy's per-call cost
+        # on arrays that short was most of this method's time. Square roots and arctangents
+        # stay numpy's: math's differ from them in the last bit.
+        px, py = float(pivot[0]), float(pivot[1])
+        if self.directions is not None:
+            middle, half_width = float(self.directions[0]), float(self.directions[1])
+        gated = self.lost_for < 5  # the radius and direction gates
+        kept = []  # (index, outward direction, weight, distance, length)
+        for index, (cx, cy, dx, dy, length, elongation, area) in enumerate(lines.tolist()):
+            ox, oy = cx - px, cy - py
+            distance = float(np.hypot(ox, oy))
+            # Along a ray from the pivot within ~14 degrees, and clearly elongated: a round
+            # blob (a ball, a fist turning) says nothing about a direction.
+            if not (abs(ox * dy - oy * dx) < max(4.0, 0.25 * distance) and distance > 2.0
+                    and length > 2.5 and elongation > 2.0):
+                continue
             # A sliver of a turning link starts at its pivot: one reaching back past it
             # (an occluder's edge sweeping across the joint) is something else.
-            keep &= distance - 1.7 * length > -self.reach_back
-        if self.radius is not None and self.lost_for < 5:
-            keep &= distance < 1.6 * self.radius
-        centre_angle = np.arctan2(-offset[:, 1], offset[:, 0])  # image y points down
-        if self.directions is not None:
+            if self.reach_back is not None and not distance - 1.7 * length > -self.reach_back:
+                continue
+            if self.radius is not None and gated and not distance < 1.6 * self.radius:
+                continue
+            centre_angle = float(np.arctan2(-oy, ox))  # image y points down
             # The link cannot point where its joint cannot turn: an occluder's edge or a
             # flipped reading there is not the link.
-            middle, half_width = self.directions
-            keep &= np.abs(wrap_angle(centre_angle - middle)) < half_width
-        if last is not None and self.lost_for < 5:
-            keep &= np.abs(wrap_angle(centre_angle - last)) < math.radians(45)
-        if not keep.any():
+            if self.directions is not None and not abs(
+                    wrap_angle(centre_angle - middle)) < half_width:
+                continue
+            if last is not None and gated and not abs(
+                    wrap_angle(centre_angle - last)) < math.radians(45):
+                continue
+            # Axes point from the pivot outward; y flips to the CCW, image-up convention.
+            if dx * ox + dy * oy < 0:
+                dx, dy = -dx, -dy
+            kept.append((index, float(np.arctan2(-dy, dx)), length * area, distance, length))
+        if not kept:
             self.lost_for += 1
             return None
         self.lost_for = 0
         if self.known_pivot is None:
-            for line in lines[keep]:
-                self.pivots.add_line(line)
-        # Axes point from the pivot outward; y flips to the CCW, image-up convention.
-        outward = np.where((np.einsum("ij,ij->i", direction, offset) < 0)[:, None],
-                           -direction, direction)[keep]
-        angles = np.arctan2(-outward[:, 1], outward[:, 0])
-        weights = (length * area)[keep]
-        mean = math.atan2(float(np.sum(weights * np.sin(angles))),
-                          float(np.sum(weights * np.cos(angles))))
-        outer = distance[keep] + 1.7 * length[keep]
-        inner = np.maximum(distance[keep] - 1.7 * length[keep], 0.0)
-        reach = float(outer.max())
+            for index, *_ in kept:
+                self.pivots.add_line(lines[index])
+        mean = math.atan2(sum(weight * math.sin(angle) for _, angle, weight, _, _ in kept),
+                          sum(weight * math.cos(angle) for _, angle, weight, _, _ in kept))
+        reach = max(distance + 1.7 * length for *_, distance, length in kept)
+        inner = min(max(distance - 1.7 * length, 0.0) for *_, distance, length in kept)
         self.radius = reach if self.radius is None else 0.9 * self.radius + 0.1 * reach
-        return mean, reach - float(inner.min())
+        return mean, reach - inner
 
     def before_pivot(self, lines: np.ndarray) -> float | None:
         """Until the pivot is found: the longest elongated region's axis (rad), pointed

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -36,7 +37,9 @@ class Estimate:
         n = np.asarray(self.angles).shape
         for name in ("angles", "omega", "alpha", "torque"):
             value = np.asarray(getattr(self, name), dtype=np.float64)
-            if value.shape != n or not np.all(np.isfinite(value)):
+            # math.isfinite over a few joints: numpy's per-call cost is most of a frame's
+            # bookkeeping here.
+            if value.shape != n or not all(map(math.isfinite, value.ravel().tolist())):
                 raise ValueError(f"Estimate.{name} must be finite with shape {n}, got {value}")
             object.__setattr__(self, name, value)
         if not 0.0 <= self.trust <= 1.0:

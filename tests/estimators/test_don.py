@@ -171,6 +171,10 @@ def test_sliding_extrema_equal_brute_force() -> None:
         recent = np.stack(images[max(0, t - 4): t + 1])
         low, high = window.extrema()
         assert np.array_equal(low, recent.min(axis=0)) and np.array_equal(high, recent.max(axis=0))
+        box = (slice(1, 5), slice(2, 7))
+        low, high = window.extrema(box)
+        assert np.array_equal(low, recent.min(axis=0)[box])
+        assert np.array_equal(high, recent.max(axis=0)[box])
 
 
 def test_component_lines_find_a_drawn_line() -> None:

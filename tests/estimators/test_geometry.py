@@ -1,0 +1,73 @@
+"""`component_lines` against regions with known moments and against OpenCV's own
+labelling and moments of the whole mask."""
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from imimic_gym.estimators.geometry import component_lines
+
+
+def test_component_lines_give_known_centres_areas_and_axes_in_label_order() -> None:
+    mask = np.zeros((40, 50), dtype=np.uint8)
+    # Both start at odd coordinates, the vertical bar left of and one row below the
+    # horizontal one: in OpenCV's 2x2 blocks from (0, 0) the horizontal one comes first.
+    mask[3:6, 31:42] = 255  # 3 x 11 horizontal bar
+    mask[4:23, 7:10] = 255  # 19 x 3 vertical bar
+    mask[33, 45] = 255  # a single pixel: below min_area
+    lines = component_lines(mask, min_area=4)
+    assert lines.shape == (2, 7)
+    horizontal, vertical = lines
+    assert horizontal[[0, 1, 6]].tolist() == [36.0, 4.0, 33.0]
+    assert vertical[[0, 1, 6]].tolist() == [8.0, 13.0, 57.0]
+    assert abs(horizontal[2]) == pytest.approx(1.0) and horizontal[3] == pytest.approx(0.0)
+    assert abs(vertical[3]) == pytest.approx(1.0) and vertical[2] == pytest.approx(0.0, abs=1e-12)
+    # Uniform bar of 11 pixels: std along it sqrt((11^2 - 1) / 12); across, 3 pixels.
+    assert horizontal[4] == pytest.approx(math.sqrt(10.0))
+    assert horizontal[5] == pytest.approx(math.sqrt(10.0 / (2 / 3)))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_component_lines_match_moments_of_the_whole_mask(seed: int) -> None:
+    """Random blobs anywhere (odd offsets included): the same regions, in the same order,
+    as labelling the whole mask and taking each region's moments with OpenCV."""
+    rng = np.random.default_rng(seed)
+    mask = np.zeros((61, 83), dtype=np.uint8)
+    for _ in range(8):
+        x, y = rng.integers(0, 80), rng.integers(0, 58)
+        cv2.ellipse(mask, (int(x), int(y)), (int(rng.integers(1, 9)), int(rng.integers(1, 4))),
+                    float(rng.uniform(0, 180)), 0, 360, 255, -1)
+    mask[rng.random(mask.shape) < 0.01] = 255  # specks
+    count, labels = cv2.connectedComponents(mask, connectivity=8)
+    expected = []
+    for i in range(1, count):
+        m = cv2.moments((labels == i).astype(np.uint8), binaryImage=True)
+        if m["m00"] < 6:
+            continue
+        a, c, b = m["mu20"] / m["m00"], m["mu02"] / m["m00"], m["mu11"] / m["m00"]
+        theta = 0.5 * math.atan2(2 * b, a - c)
+        major = (a + c) / 2 + math.hypot((a - c) / 2, b)
+        expected.append([m["m10"] / m["m00"], m["m01"] / m["m00"], math.sqrt(major), m["m00"],
+                         math.cos(theta), math.sin(theta), math.hypot((a - c) / 2, b)])
+    expected = np.array(expected)
+    lines = component_lines(mask, min_area=6)
+    assert len(expected) >= 3
+    assert np.allclose(lines[:, [0, 1, 4, 6]], expected[:, :4], rtol=0, atol=1e-9)
+    # The axis is defined where the region is not round: there, the same direction.
+    defined = expected[:, 6] > 0.01
+    assert np.allclose(lines[defined, 2:4], expected[defined, 4:6], rtol=0, atol=1e-9)
+
+
+def test_component_lines_of_an_empty_mask_are_empty() -> None:
+    assert component_lines(np.zeros((12, 16), dtype=np.uint8), min_area=1).shape == (0, 7)
+
+
+def test_a_lone_region_counts_from_min_area_on() -> None:
+    mask = np.zeros((20, 30), dtype=np.uint8)
+    mask[7:9, 11:17] = 255  # 2 x 6 bar, 12 pixels, centre (13.5, 7.5)
+    assert component_lines(mask, min_area=13).shape == (0, 7)
+    (line,) = component_lines(mask, min_area=12)
+    assert line[[0, 1, 6]].tolist() == [13.5, 7.5, 12.0]
+    assert line[4] == pytest.approx(math.sqrt(35 / 12))  # std of 6 uniform pixels
