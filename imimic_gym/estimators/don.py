@@ -7,7 +7,7 @@ Decisions where the paper is vague or inconsistent (each is also noted where it 
 
 - Working resolution. Every layer runs on the frame area-averaged down to
   ``working_height`` rows (120: half of the paper's 240x320), with the paper's 15x15
-  Gaussian scaled by the same factor (7x7), in colour (`frames.py`). Angles are
+  Gaussian scaled by the same factor (sigma 1.3, 5x5), in colour (`frames.py`). Angles are
   scale-free; pixel outputs are scaled back.
 - Difference indices. The paper's Eq. (f1) runs p = 0..N-1 and so needs f_{t+1}; we use
   delta1_p = |f_{t-p+1} - f_{t-p}|, p = 1..N, so delta1_1 is the newest difference.
