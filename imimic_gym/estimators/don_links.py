@@ -1,0 +1,400 @@
+"""DON for a tree of 2-3 links: the paper's object regression layer (§3, "a line per
+link"), on top of DON's layers 1-3 from `don.py`.
+
+The paper fits a straight line per link to the moving pixels and takes the joint angles
+as the angles between the lines, but never says which moving pixel belongs to which link
+or where a moving link's pivot is. Decisions (each also noted where it acts):
+
+- Links are found parents first. The root turns about a fixed pivot, found as for one
+  link (`geometry.PivotEstimator`: the mode of the crossings of the moving regions'
+  axes, only crossings from which both regions lie in the root's joint fan count) unless
+  it is given. A child turns about its parent's tip, which moves, so no fixed point
+  exists for it; its pivot is taken as the parent's pivot plus the parent's measured
+  length along the parent's direction, every frame.
+- Which pixels are a link's. A link is searched for inside its joint's range (relative to
+  its parent's direction as measured this frame) plus a margin, and within a gate of its
+  last direction: the direction whose band (a strip ``band`` px either side of the ray
+  from its pivot, as long as the link) holds the most moving pixels wins. Pixels a
+  parent has claimed (its band, short of its tip) are not offered to its children, so a
+  turning upper arm never reads as the forearm; the parent's band stops short of its own
+  tip, so the child's pixels near the joint do not tilt the parent. The direction itself
+  is the principal axis of the band's pixels, not of the ray: an axis does not tilt when
+  the pivot is a few pixels off, as a pivot-to-pixel angle would.
+- Link lengths are not known from the video a priori. A link's length is the reach of
+  its band's pixels along it (the 95th percentile, robust to a stray pixel), smoothed
+  over frames; for a link with children it is only updated when a child is bent by more
+  than 25 degrees, since a straight child extends the parent's band past the joint.
+- A link with too few pixels in its band (fewer than ``min_area``) did not move this
+  frame: it holds its joint angle, so a forearm turning alone leaves the upper arm where
+  it was (a rigidly carried child does move, and is measured).
+- Torque is the robot model's inverse dynamics (`motion.TorqueModel`, ``mj_inverse``), so
+  coupling and gravity count. eta is the paper's Eq. (TF) with M_p the summed visible
+  length of all links. There is no n-link occlusion scenario to tune a prediction layer
+  on, so ``predicted`` is always False here: frames without motion hold the last estimate.
+- Each direction is measured on delta1_1, which spans frames t-1 and t, so it lags by half
+  a frame; the reported angles are q + omega / (2 fps), as in the one-link DON.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections import deque
+from collections.abc import Iterable, Sequence
+
+import cv2
+import mujoco
+import numpy as np
+
+from imimic_gym.estimators.don import SlidingExtrema, _any_channel_above
+from imimic_gym.estimators.frames import WorkingFrames
+from imimic_gym.estimators.geometry import PivotEstimator, component_lines
+from imimic_gym.estimators.motion import PathEstimator, TorqueModel
+from imimic_gym.estimators.types import Estimate
+from imimic_gym.metrics import wrap_angle
+
+__all__ = ["LinkedDON", "MotionMask"]
+
+MARGIN_DEG = 15.0  # how far past its joint range a link may still be searched for
+GATE_DEG = 40.0  # how far from its last direction a link may be found in one frame
+STEP_DEG = 1.0  # the direction search's resolution
+BENT_DEG = 25.0  # a joint bent by less than this has no measurable position
+LENGTH_MEMORY = 60  # length measurements kept per link
+MIN_MEASUREMENTS = 3  # before the links are followed
+MAX_POINTS = 600  # moving pixels the fit looks at (evenly subsampled beyond)
+SWEEPS = 2  # coordinate-search passes per frame
+TIP = float(os.environ.get('TIP','0.05'))
+STAY = float(os.environ.get('STAY','0.05'))  # score lost per degree a joint moves from its last angle
+
+
+class MotionMask:
+    """DON layers 1-3 (`don.py`'s units): each frame in, l_1 = (union delta2) & delta1_1
+    out, the pixels that surely moved, (h, w) uint8 at the working resolution.
+
+    Args:
+        window: N, the frames in the input layer (paper: 10).
+        gaussian: the paper's Gaussian kernel size at 240 rows.
+        threshold: binarisation threshold of a difference, grey levels, any channel.
+        working_height: rows of the working resolution.
+    """
+
+    def __init__(self, window: int = 10, gaussian: int = 15, threshold: int = 12,
+                 working_height: int = 120) -> None:
+        if window < 2:
+            raise ValueError(f"window must be at least 2 frames, got {window}")
+        self.frames = WorkingFrames(working_height, gaussian, name="LinkedDON")
+        self.window, self.threshold = window, threshold
+        self.reset()
+
+    def reset(self) -> None:
+        self.frames.reset()
+        self.previous: np.ndarray | None = None
+        self.extrema = SlidingExtrema(self.window)
+
+    def __call__(self, frame: np.ndarray) -> np.ndarray | None:
+        """The mask for ``frame`` (H, W, 3) uint8 RGB; None for the first frame."""
+        image = self.frames(frame)
+        mask = None
+        if self.previous is not None:
+            tau = self.threshold
+            delta1 = _any_channel_above(cv2.absdiff(image, self.previous), tau)
+            low, high = self.extrema.extrema()
+            union = _any_channel_above(
+                cv2.max(cv2.subtract(image, low), cv2.subtract(high, image)), tau)
+            mask = cv2.bitwise_and(delta1, union)
+        self.previous = image
+        self.extrema.push(image)
+        return mask
+
+
+def segment_score(points: np.ndarray, starts: np.ndarray, ends: np.ndarray,
+                  band: float) -> np.ndarray:
+    """How well polylines explain the moving pixels: for each of K candidate sets of S
+    segments, the sum over ``points`` (N, 2) of max(0, 1 - d / band), d the distance
+    (px) to the nearest segment. ``starts``, ``ends``: (K, S, 2). Returns (K,) float.
+
+    A tent rather than a count inside a strip: the moving pixels of a fast link form a
+    blob wider than the link, and a count would be flat across it; the tent peaks on its
+    middle line."""
+    seg = ends - starts  # (K, S, 2)
+    length2 = np.maximum(np.einsum("ksd,ksd->ks", seg, seg), 1e-9)
+    rel = points[None, None, :, :] - starts[:, :, None, :]  # (K, S, N, 2)
+    t = np.clip(np.einsum("ksnd,ksd->ksn", rel, seg) / length2[:, :, None], 0.0, 1.0)
+    nearest = rel - t[..., None] * seg[:, :, None, :]
+    d = np.sqrt(np.einsum("ksnd,ksnd->ksn", nearest, nearest)).min(axis=1)  # (K, N)
+    return np.maximum(0.0, 1.0 - d / band).sum(axis=1)
+
+
+def corner(points: np.ndarray, start: np.ndarray, tip: np.ndarray, band: float,
+           candidates: int = 200) -> np.ndarray:
+    """The joint between two links: the point C (among the moving pixels, at most
+    ``candidates`` of them tried) whose polyline start -> C -> tip best explains
+    ``points`` (`segment_score`). (2,) px."""
+    step = max(1, len(points) // candidates)
+    trial = points[::step]
+    k = len(trial)
+    starts = np.stack([np.broadcast_to(start, (k, 2)), trial], axis=1)
+    ends = np.stack([trial, np.broadcast_to(tip, (k, 2))], axis=1)
+    return trial[int(np.argmax(segment_score(points, starts, ends, band)))]
+
+
+def _unit(direction: np.ndarray) -> np.ndarray:
+    """(..., 2) image vectors (x right, y down) of directions (rad, CCW, image up)."""
+    return np.stack([np.cos(direction), -np.sin(direction)], axis=-1)
+
+
+def _direction(vector: np.ndarray) -> float:
+    """Direction (rad, CCW, image up) of an image vector (x right, y down)."""
+    return math.atan2(-float(vector[1]), float(vector[0]))
+
+
+class LinkedDON:
+    """DON for a tree of moving links (a chain, or the hand's forearm with two fingers).
+
+    Args:
+        parents: each link's parent link (-1: the fixed reference); parents come first.
+        joint_ranges: each joint's (low, high) limits, rad, relative to its parent.
+        fps: frame rate of the video, for rad/s.
+        reference_direction: image-plane direction (rad, CCW from image right) of the
+            fixed reference link; the root's joint angle is its direction minus this.
+        pivot: the root's pivot in input pixels (x, y), if known; else found from the video.
+        window, gaussian, threshold, working_height: DON layers 1-2 (`MotionMask`).
+        band: distance (working px) from a link's line at which a moving pixel stops
+            counting as the link's.
+        robot: a MuJoCo model of the robot (n joints), for torques; None gives zero torque.
+        min_area: fewest moving pixels (working resolution) that count as motion.
+    """
+
+    def __init__(
+        self,
+        parents: Sequence[int],
+        joint_ranges: Sequence[tuple[float, float]],
+        fps: float = 30.0,
+        reference_direction: float = 0.0,
+        pivot: tuple[float, float] | None = None,
+        window: int = 10,
+        gaussian: int = 15,
+        threshold: int = 12,
+        working_height: int = 120,
+        band: float = 6.0,
+        robot: mujoco.MjModel | None = None,
+        min_area: int = 12,
+    ) -> None:
+        self.parents = tuple(int(p) for p in parents)
+        self.n = len(self.parents)
+        if not 1 <= self.n <= 3:
+            raise ValueError(f"LinkedDON follows 1 to 3 links, got parents {self.parents}")
+        for i, p in enumerate(self.parents):
+            if not -1 <= p < i:
+                raise ValueError(f"parents must list each link's parent before it (-1 for "
+                                 f"the fixed reference), got {self.parents}")
+        if len(joint_ranges) != self.n:
+            raise ValueError(f"joint_ranges must give (low, high) for each of the {self.n} "
+                             f"links, got {len(joint_ranges)}")
+        self.joint_ranges = np.array([(float(lo), float(hi)) for lo, hi in joint_ranges])
+        if robot is not None and robot.nv != self.n:
+            raise ValueError(f"robot model has {robot.nv} joints, the tree has {self.n}")
+        self.mask = MotionMask(window, gaussian, threshold, working_height)
+        self.fps, self.window = float(fps), window
+        self.reference_direction = float(reference_direction)
+        self.known_pivot = None if pivot is None else np.asarray(pivot, dtype=np.float64)
+        self.band, self.min_area = float(band), min_area
+        self.torque_model = TorqueModel(robot) if robot is not None else None
+        self.leaves = [i for i in range(self.n) if i not in self.parents]
+        self.children = [[c for c, p in enumerate(self.parents) if p == i]
+                         for i in range(self.n)]
+        self.reset()
+
+    def reset(self) -> None:
+        self.mask.reset()
+        root = self.joint_ranges[0]
+        middle = self.reference_direction + float(root.mean())
+        half = float(root[1] - root[0]) / 2 + math.radians(MARGIN_DEG)
+        self.pivots = PivotEstimator(directions=(middle, half))
+        self.root_pivot: np.ndarray | None = None
+        # Length measurements per link (working px); their median is the link's length.
+        self.measured: list[deque[float]] = [deque(maxlen=LENGTH_MEMORY) for _ in range(self.n)]
+        # Before anything moved: the middle of each joint's range, the guess least far
+        # from anywhere the arm can be.
+        self.q = self.joint_ranges.mean(axis=1)
+        self.tracking = False
+        self.path = PathEstimator(self.n, self.fps, self.window)
+        self.sizes: deque[float | None] = deque(maxlen=self.window)
+        self.estimate = self._estimate(np.zeros(self.n), np.zeros(self.n), trust=1.0)
+        self.last_mask: np.ndarray | None = None
+
+    @property
+    def scale(self) -> float:
+        """Input pixels per working pixel."""
+        return self.mask.frames.scale
+
+    def lengths(self) -> np.ndarray | None:
+        """(n,) link lengths (working px), the median of each link's measurements; None
+        until every link has ``MIN_MEASUREMENTS``."""
+        if any(len(m) < MIN_MEASUREMENTS for m in self.measured):
+            return None
+        return np.array([float(np.median(m)) for m in self.measured])
+
+    def directions(self, q: np.ndarray) -> np.ndarray:
+        """(..., n) absolute image directions (rad) of the links for joint angles ``q``
+        (..., n)."""
+        out = np.array(q, dtype=np.float64, copy=True)
+        for i, p in enumerate(self.parents):
+            out[..., i] += self.reference_direction if p < 0 else out[..., p]
+        return out
+
+    def joints(self, q: np.ndarray, pivot: np.ndarray, lengths: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
+        """Each link's (start, end), (..., n, 2) working px, for joint angles (..., n)."""
+        ends = _unit(self.directions(q)) * lengths[:, None]
+        starts = np.zeros_like(ends)
+        starts[..., :, :] = pivot
+        for i, p in enumerate(self.parents):
+            if p >= 0:
+                starts[..., i, :] = starts[..., p, :] + ends[..., p, :]
+        return starts, starts + ends
+
+    def _pivot(self, mask: np.ndarray) -> np.ndarray | None:
+        if self.known_pivot is not None:
+            return self.known_pivot / self.scale
+        if self.root_pivot is None:
+            for line in component_lines(mask, self.min_area):
+                if line[5] > 1.4 and line[4] > 3.0:
+                    self.pivots.add_line(line)
+            self.root_pivot = self.pivots.pivot()
+        return self.root_pivot
+
+    def _measure_lengths(self, points: np.ndarray, pivot: np.ndarray, tip: np.ndarray) -> None:
+        """Object regression without lengths: the tree's corners from this frame's moving
+        pixels. The tip is the moving pixel farthest from the pivot; the joint along the
+        way is the corner of the polyline pivot -> joint -> tip that best explains the
+        pixels (`corner`). A corner is only a length when the polyline bends there by more
+        than ``BENT_DEG``: along a straight arm any point explains the pixels equally."""
+        start, link = pivot, 0
+        while self.children[link]:
+            joint = corner(points, start, tip, self.band)
+            direction = _direction(joint - start)
+            bend = wrap_angle(_direction(tip - joint) - direction)
+            if abs(bend) < math.radians(BENT_DEG):
+                return
+            self.measured[link].append(float(np.hypot(*(joint - start))))
+            offset = points - joint
+            distance = np.hypot(*offset.T)
+            bearing = np.arctan2(-offset[:, 1], offset[:, 0])
+            inner = None
+            for c in self.children[link]:
+                if self.children[c]:
+                    inner = c
+                    continue
+                # A leaf's length: its farthest moving pixel from the joint, where its
+                # joint's range lets it point.
+                lo, hi = self.joint_ranges[c]
+                middle = direction + (lo + hi) / 2
+                half = (hi - lo) / 2 + math.radians(MARGIN_DEG)
+                fan = (np.abs(wrap_angle(bearing - middle)) < half) & (distance > 1.0)
+                if fan.any():
+                    self.measured[c].append(float(distance[fan].max()))
+            if inner is None:
+                return
+            start, link = joint, inner
+
+    def _fit(self, points: np.ndarray, pivot: np.ndarray, lengths: np.ndarray,
+             tip: np.ndarray) -> np.ndarray:
+        """Object regression: the joint angles (n,) whose links best explain the moving
+        pixels (`segment_score`), by coordinate search from the last angles: each joint
+        in turn over its range (1 degree steps) with the others held, twice. A candidate
+        loses ``STAY`` per degree it moves away from the last angle, so a link with no
+        pixels of its own (at rest) stays where it was instead of wandering."""
+        q = self.q.copy()
+        margin = math.radians(MARGIN_DEG)
+        step = math.radians(STEP_DEG)
+        for _ in range(SWEEPS):
+            for i in range(self.n):
+                lo, hi = self.joint_ranges[i]
+                values = np.arange(lo - margin, hi + margin + 1e-9, step)
+                trial = np.repeat(q[None, :], len(values), axis=0)
+                trial[:, i] = values
+                # The root turns with its children's absolute directions held: the
+                # forearm's pixels then fix where the elbow is, even when the upper arm
+                # did not move.
+                for c in self.children[i]:
+                    trial[:, c] -= values - q[i]
+                starts, ends = self.joints(trial, pivot, lengths)
+                score = segment_score(points, starts, ends, self.band)
+                score -= STAY * np.degrees(np.abs(values - self.q[i]))
+                beyond = np.hypot(*(ends[:, self.leaves] - pivot).transpose(2, 0, 1)).max(axis=1)
+                beyond -= float(np.hypot(*(tip - pivot))) + self.band
+                score -= TIP * len(points) / self.band * np.maximum(beyond, 0.0)
+                best = int(np.argmax(score))
+                q = trial[best]
+        return q
+
+    def update(self, frame: np.ndarray) -> Estimate:
+        """Take the next (H, W, 3) uint8 RGB frame; return the estimate for it."""
+        mask = self.mask(frame)
+        if mask is None:
+            return self.estimate
+        self.last_mask = mask
+        found = cv2.findNonZero(mask)
+        pivot = self._pivot(mask) if found is not None else self.root_pivot
+        if found is None or len(found) < self.min_area or pivot is None:
+            self.sizes.append(None)
+            return self._hold(trust=1.0)  # nothing moved (or nowhere to turn about yet)
+        points = found.reshape(-1, 2).astype(np.float64)
+        if len(points) > MAX_POINTS:
+            points = points[:: len(points) // MAX_POINTS + 1]
+        tip = points[int(np.argmax(np.hypot(*(points - pivot).T)))]
+        self._measure_lengths(points, pivot, tip)
+        lengths = self.lengths()
+        if lengths is None:
+            self.sizes.append(None)
+            return self.estimate
+        q = self._fit(points, pivot, lengths, tip)
+        self.sizes.append(float(len(points)))
+        self.q = q
+        self.tracking = True
+        self.path.update(q)
+        omega, alpha = self.path.omega(), self.path.alpha()
+        self.estimate = self._estimate(omega, alpha, trust=self._trust())
+        return self.estimate
+
+    def _trust(self) -> float:
+        """eta = 1 - max_p |M_1 - M_p| / max_p M_p, paper Eq. (TF), M_p the links' summed
+        visible length; 1 with fewer than two measurements."""
+        sizes = np.asarray([m for m in self.sizes if m is not None], dtype=np.float64)
+        largest = sizes.max() if sizes.size > 1 else 0.0
+        if largest <= 0:
+            return 1.0
+        return float(1.0 - np.max(np.abs(sizes[-1] - sizes)) / largest)
+
+    def _hold(self, trust: float) -> Estimate:
+        """Nothing to measure: the arm stays where it was, at rest."""
+        if self.tracking:
+            self.path.update(self.q)
+            self.estimate = self._estimate(np.zeros(self.n), np.zeros(self.n), trust)
+        return self.estimate
+
+    def _estimate(self, omega: np.ndarray, alpha: np.ndarray, trust: float) -> Estimate:
+        # delta1_1 spans frames t-1 and t: the measured angles are half a frame old.
+        angles = wrap_angle(self.q + 0.5 * omega / self.fps)
+        torque = (self.torque_model(angles, omega, alpha) if self.torque_model is not None
+                  else np.zeros(self.n))
+        return Estimate(angles=angles, omega=omega, alpha=alpha, torque=torque,
+                        trust=float(np.clip(trust, 0.0, 1.0)), predicted=False,
+                        keypoints=self.keypoints(angles))
+
+    def keypoints(self, q: np.ndarray) -> np.ndarray | None:
+        """(n + 1, 2) input pixels (x, y): the root pivot, then each link's tip, once the
+        pivot and the lengths are known."""
+        pivot = (self.known_pivot / self.scale if self.known_pivot is not None
+                 else self.root_pivot)
+        lengths = self.lengths()
+        if pivot is None or lengths is None:
+            return None
+        _, ends = self.joints(q, pivot, lengths)
+        return np.vstack([pivot, ends]) * self.scale
+
+    def run(self, frames: Iterable[np.ndarray]) -> list[Estimate]:
+        """Estimates for every frame of an iterable (a clip's frames, a video reader)."""
+        self.reset()
+        return [self.update(frame) for frame in frames]
