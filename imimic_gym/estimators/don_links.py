@@ -1,44 +1,48 @@
 """DON for a tree of 2-3 links: the paper's object regression layer (§3, "a line per
-link"), on top of DON's layers 1-3 from `don.py`.
+link"), on top of DON's layers 1-3 (`don.py`'s units, in `MotionMask`).
 
 The paper fits a straight line per link to the moving pixels and takes the joint angles
 as the angles between the lines, but never says which moving pixel belongs to which link
 or where a moving link's pivot is. Decisions (each also noted where it acts):
 
-- Links are found parents first. The root turns about a fixed pivot, found as for one
-  link (`geometry.PivotEstimator`: the mode of the crossings of the moving regions'
-  axes, only crossings from which both regions lie in the root's joint fan count) unless
-  it is given. A child turns about its parent's tip, which moves, so no fixed point
-  exists for it; its pivot is taken as the parent's pivot plus the parent's measured
-  length along the parent's direction, every frame.
-- Which pixels are a link's. A link is searched for inside its joint's range (relative to
-  its parent's direction as measured this frame) plus a margin, and within a gate of its
-  last direction: the direction whose band (a strip ``band`` px either side of the ray
-  from its pivot, as long as the link) holds the most moving pixels wins. Pixels a
-  parent has claimed (its band, short of its tip) are not offered to its children, so a
-  turning upper arm never reads as the forearm; the parent's band stops short of its own
-  tip, so the child's pixels near the joint do not tilt the parent. The direction itself
-  is the principal axis of the band's pixels, not of the ray: an axis does not tilt when
-  the pivot is a few pixels off, as a pivot-to-pixel angle would.
-- Link lengths are not known from the video a priori. A link's length is the reach of
-  its band's pixels along it (the 95th percentile, robust to a stray pixel), smoothed
-  over frames; for a link with children it is only updated when a child is bent by more
-  than 25 degrees, since a straight child extends the parent's band past the joint.
-- A link with too few pixels in its band (fewer than ``min_area``) did not move this
-  frame: it holds its joint angle, so a forearm turning alone leaves the upper arm where
-  it was (a rigidly carried child does move, and is measured).
+- Links are not assigned pixels one by one. The lines of all links are fitted together:
+  the joint angles whose polyline (root pivot, then each link's length along its
+  direction) best explains this frame's moving pixels l_1 (`segment_score`) win. Fitting
+  regions to links one at a time failed on the rendered chains: the upper arm's and the
+  forearm's moving pixels join at the elbow into one region, and the forearm's pixels
+  pulled the upper arm's line off. A child's pivot is its parent's tip, which moves; it
+  comes out of the fit, never from a fixed point.
+- A link at rest has no moving pixels of its own. The fit turns the root with its
+  children's image directions held, so the forearm's pixels alone place the elbow, and a
+  joint loses `STAY` per degree it moves from its last angle, so a link nothing pins
+  down holds its angle. A joint turns at most `GATE_DEG` per frame: a frame with a few
+  dozen moving pixels (the arm stopping) can otherwise flip a link.
+- The root pivot (the shoulder, or the elbow for the hand) is given, or found as the
+  place where the moving tree's far ends keep coming back to (`blob_ends`,
+  `recurring_point` over the first ``PIVOT_ENDS`` ends): the tips sweep about, the pivot
+  end stays. The one-link pivot (`geometry.PivotEstimator`, the mode of crossing region
+  axes) was tried and lands on the elbow's crossings, 20 px off on chain-2.
+- Link lengths are not known from the video a priori. The tip of the tree is the moving
+  pixel farthest from the pivot; each joint is the corner of the polyline pivot -> joint
+  -> tip that best explains the pixels (`corner`), measured only where the polyline
+  bends by more than `BENT_DEG` (along a straight arm any point fits); a leaf's length is
+  its farthest moving pixel from its joint inside its joint's range. A length is the
+  median of its measurements; the links are followed once each has `MIN_MEASUREMENTS`.
+- Binarisation threshold 4 grey levels, not the one-link DON's 12: the upper arm's blue
+  sleeve against the blue-grey wall barely differs, and without its pixels the elbow is
+  placed by the forearm alone (chain-2 seeds 0-4, given pivot: 10.6/14.3 deg at 12,
+  7.0/7.9 at 4; band 9 px and `STAY` 0.5 were tuned on the same seeds).
 - Torque is the robot model's inverse dynamics (`motion.TorqueModel`, ``mj_inverse``), so
-  coupling and gravity count. eta is the paper's Eq. (TF) with M_p the summed visible
-  length of all links. There is no n-link occlusion scenario to tune a prediction layer
-  on, so ``predicted`` is always False here: frames without motion hold the last estimate.
-- Each direction is measured on delta1_1, which spans frames t-1 and t, so it lags by half
-  a frame; the reported angles are q + omega / (2 fps), as in the one-link DON.
+  coupling and gravity count. eta is the paper's Eq. (TF) with M_p the area of l_p,
+  as the paper has it. No n-link occlusion scenario exists to tune a prediction layer
+  on, so ``predicted`` is always False here; frames without motion hold the estimate.
+- The mask spans frames t-1 and t, so the fit lags by half a frame; the reported angles
+  are q + omega / (2 fps), as in the one-link DON.
 """
 
 from __future__ import annotations
 
 import math
-import os
 from collections import deque
 from collections.abc import Iterable, Sequence
 
@@ -48,7 +52,6 @@ import numpy as np
 
 from imimic_gym.estimators.don import SlidingExtrema, _any_channel_above
 from imimic_gym.estimators.frames import WorkingFrames
-from imimic_gym.estimators.geometry import PivotEstimator, component_lines
 from imimic_gym.estimators.motion import PathEstimator, TorqueModel
 from imimic_gym.estimators.types import Estimate
 from imimic_gym.metrics import wrap_angle
@@ -56,15 +59,15 @@ from imimic_gym.metrics import wrap_angle
 __all__ = ["LinkedDON", "MotionMask"]
 
 MARGIN_DEG = 15.0  # how far past its joint range a link may still be searched for
-GATE_DEG = 40.0  # how far from its last direction a link may be found in one frame
+GATE_DEG = 15.0  # how far a joint may turn in one frame
 STEP_DEG = 1.0  # the direction search's resolution
 BENT_DEG = 25.0  # a joint bent by less than this has no measurable position
 LENGTH_MEMORY = 60  # length measurements kept per link
 MIN_MEASUREMENTS = 3  # before the links are followed
+PIVOT_ENDS = 60  # far ends of moving trees gathered before the root pivot is fixed
 MAX_POINTS = 600  # moving pixels the fit looks at (evenly subsampled beyond)
 SWEEPS = 2  # coordinate-search passes per frame
-TIP = float(os.environ.get('TIP','0.05'))
-STAY = float(os.environ.get('STAY','0.05'))  # score lost per degree a joint moves from its last angle
+STAY = 0.5  # score lost per degree a joint moves from its last angle
 
 
 class MotionMask:
@@ -78,7 +81,7 @@ class MotionMask:
         working_height: rows of the working resolution.
     """
 
-    def __init__(self, window: int = 10, gaussian: int = 15, threshold: int = 12,
+    def __init__(self, window: int = 10, gaussian: int = 15, threshold: int = 4,
                  working_height: int = 120) -> None:
         if window < 2:
             raise ValueError(f"window must be at least 2 frames, got {window}")
@@ -138,6 +141,21 @@ def corner(points: np.ndarray, start: np.ndarray, tip: np.ndarray, band: float,
     return trial[int(np.argmax(segment_score(points, starts, ends, band)))]
 
 
+def blob_ends(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The two far ends (2,) px of a set of moving pixels (k, 2): the pixel farthest from
+    their centre, and the pixel farthest from that one."""
+    first = points[int(np.argmax(np.hypot(*(points - points.mean(axis=0)).T)))]
+    return first, points[int(np.argmax(np.hypot(*(points - first).T)))]
+
+
+def recurring_point(points: np.ndarray, radius: float) -> np.ndarray:
+    """The densest place among ``points`` (k, 2) px: the point with the most others within
+    ``radius``, moved to the mean of those. (2,) px."""
+    distance = np.hypot(*(points[:, None, :] - points[None, :, :]).transpose(2, 0, 1))
+    near = distance < radius
+    return points[near[int(np.argmax(near.sum(axis=1)))]].mean(axis=0)
+
+
 def _unit(direction: np.ndarray) -> np.ndarray:
     """(..., 2) image vectors (x right, y down) of directions (rad, CCW, image up)."""
     return np.stack([np.cos(direction), -np.sin(direction)], axis=-1)
@@ -174,9 +192,9 @@ class LinkedDON:
         pivot: tuple[float, float] | None = None,
         window: int = 10,
         gaussian: int = 15,
-        threshold: int = 12,
+        threshold: int = 4,
         working_height: int = 120,
-        band: float = 6.0,
+        band: float = 9.0,
         robot: mujoco.MjModel | None = None,
         min_area: int = 12,
     ) -> None:
@@ -200,17 +218,13 @@ class LinkedDON:
         self.known_pivot = None if pivot is None else np.asarray(pivot, dtype=np.float64)
         self.band, self.min_area = float(band), min_area
         self.torque_model = TorqueModel(robot) if robot is not None else None
-        self.leaves = [i for i in range(self.n) if i not in self.parents]
         self.children = [[c for c, p in enumerate(self.parents) if p == i]
                          for i in range(self.n)]
         self.reset()
 
     def reset(self) -> None:
         self.mask.reset()
-        root = self.joint_ranges[0]
-        middle = self.reference_direction + float(root.mean())
-        half = float(root[1] - root[0]) / 2 + math.radians(MARGIN_DEG)
-        self.pivots = PivotEstimator(directions=(middle, half))
+        self.ends: list[np.ndarray] = []
         self.root_pivot: np.ndarray | None = None
         # Length measurements per link (working px); their median is the link's length.
         self.measured: list[deque[float]] = [deque(maxlen=LENGTH_MEMORY) for _ in range(self.n)]
@@ -254,14 +268,15 @@ class LinkedDON:
                 starts[..., i, :] = starts[..., p, :] + ends[..., p, :]
         return starts, starts + ends
 
-    def _pivot(self, mask: np.ndarray) -> np.ndarray | None:
+    def _pivot(self, points: np.ndarray) -> np.ndarray | None:
+        """The root's pivot (working px): the given one, else the place where the moving
+        tree's far ends keep coming back to (`blob_ends`, `recurring_point`)."""
         if self.known_pivot is not None:
             return self.known_pivot / self.scale
         if self.root_pivot is None:
-            for line in component_lines(mask, self.min_area):
-                if line[5] > 1.4 and line[4] > 3.0:
-                    self.pivots.add_line(line)
-            self.root_pivot = self.pivots.pivot()
+            self.ends.extend(blob_ends(points))
+            if len(self.ends) >= PIVOT_ENDS:
+                self.root_pivot = recurring_point(np.array(self.ends), self.band / 2)
         return self.root_pivot
 
     def _measure_lengths(self, points: np.ndarray, pivot: np.ndarray, tip: np.ndarray) -> None:
@@ -298,8 +313,7 @@ class LinkedDON:
                 return
             start, link = joint, inner
 
-    def _fit(self, points: np.ndarray, pivot: np.ndarray, lengths: np.ndarray,
-             tip: np.ndarray) -> np.ndarray:
+    def _fit(self, points: np.ndarray, pivot: np.ndarray, lengths: np.ndarray) -> np.ndarray:
         """Object regression: the joint angles (n,) whose links best explain the moving
         pixels (`segment_score`), by coordinate search from the last angles: each joint
         in turn over its range (1 degree steps) with the others held, twice. A candidate
@@ -311,6 +325,9 @@ class LinkedDON:
         for _ in range(SWEEPS):
             for i in range(self.n):
                 lo, hi = self.joint_ranges[i]
+                if self.tracking:  # a joint turns at most GATE_DEG in one frame
+                    gate = math.radians(GATE_DEG)
+                    lo, hi = max(lo, q[i] - gate + margin), min(hi, q[i] + gate - margin)
                 values = np.arange(lo - margin, hi + margin + 1e-9, step)
                 trial = np.repeat(q[None, :], len(values), axis=0)
                 trial[:, i] = values
@@ -322,9 +339,6 @@ class LinkedDON:
                 starts, ends = self.joints(trial, pivot, lengths)
                 score = segment_score(points, starts, ends, self.band)
                 score -= STAY * np.degrees(np.abs(values - self.q[i]))
-                beyond = np.hypot(*(ends[:, self.leaves] - pivot).transpose(2, 0, 1)).max(axis=1)
-                beyond -= float(np.hypot(*(tip - pivot))) + self.band
-                score -= TIP * len(points) / self.band * np.maximum(beyond, 0.0)
                 best = int(np.argmax(score))
                 q = trial[best]
         return q
@@ -336,20 +350,23 @@ class LinkedDON:
             return self.estimate
         self.last_mask = mask
         found = cv2.findNonZero(mask)
-        pivot = self._pivot(mask) if found is not None else self.root_pivot
-        if found is None or len(found) < self.min_area or pivot is None:
+        if found is None or len(found) < self.min_area:
             self.sizes.append(None)
-            return self._hold(trust=1.0)  # nothing moved (or nowhere to turn about yet)
+            return self._hold(trust=1.0)  # nothing moved, nothing to distrust
         points = found.reshape(-1, 2).astype(np.float64)
         if len(points) > MAX_POINTS:
             points = points[:: len(points) // MAX_POINTS + 1]
+        pivot = self._pivot(points)
+        if pivot is None:
+            self.sizes.append(None)
+            return self.estimate  # nowhere to turn about yet
         tip = points[int(np.argmax(np.hypot(*(points - pivot).T)))]
         self._measure_lengths(points, pivot, tip)
         lengths = self.lengths()
         if lengths is None:
             self.sizes.append(None)
             return self.estimate
-        q = self._fit(points, pivot, lengths, tip)
+        q = self._fit(points, pivot, lengths)
         self.sizes.append(float(len(points)))
         self.q = q
         self.tracking = True
