@@ -64,7 +64,8 @@ STEP_DEG = 1.0  # the direction search's resolution
 BENT_DEG = 25.0  # a joint bent by less than this has no measurable position
 LENGTH_MEMORY = 60  # length measurements kept per link
 MIN_MEASUREMENTS = 3  # before the links are followed
-PIVOT_ENDS = 60  # far ends of moving trees gathered before the root pivot is fixed
+PIVOT_MIN_ENDS = 16  # far ends of moving trees seen before a first root pivot
+PIVOT_ENDS = 60  # far ends of moving trees seen before the root pivot is fixed
 MAX_POINTS = 600  # moving pixels the fit looks at (evenly subsampled beyond)
 SWEEPS = 2  # coordinate-search passes per frame
 STAY = 0.5  # score lost per degree a joint moves from its last angle
@@ -200,8 +201,9 @@ class LinkedDON:
     ) -> None:
         self.parents = tuple(int(p) for p in parents)
         self.n = len(self.parents)
-        if not 1 <= self.n <= 3:
-            raise ValueError(f"LinkedDON follows 1 to 3 links, got parents {self.parents}")
+        if not 2 <= self.n <= 3:
+            raise ValueError(f"LinkedDON follows 2 or 3 links (`DON` follows one), got "
+                             f"parents {self.parents}")
         for i, p in enumerate(self.parents):
             if not -1 <= p < i:
                 raise ValueError(f"parents must list each link's parent before it (-1 for "
@@ -228,6 +230,7 @@ class LinkedDON:
         self.root_pivot: np.ndarray | None = None
         # Length measurements per link (working px); their median is the link's length.
         self.measured: list[deque[float]] = [deque(maxlen=LENGTH_MEMORY) for _ in range(self.n)]
+        self.root_joints: deque[np.ndarray] = deque(maxlen=LENGTH_MEMORY)
         # Before anything moved: the middle of each joint's range, the guess least far
         # from anywhere the arm can be.
         self.q = self.joint_ranges.mean(axis=1)
@@ -245,9 +248,12 @@ class LinkedDON:
     def lengths(self) -> np.ndarray | None:
         """(n,) link lengths (working px), the median of each link's measurements; None
         until every link has ``MIN_MEASUREMENTS``."""
-        if any(len(m) < MIN_MEASUREMENTS for m in self.measured):
+        pivot = self.pivot()
+        if pivot is None or len(self.root_joints) < MIN_MEASUREMENTS or any(
+                len(m) < MIN_MEASUREMENTS for m in self.measured[1:]):
             return None
-        return np.array([float(np.median(m)) for m in self.measured])
+        root = float(np.median(np.hypot(*(np.array(self.root_joints) - pivot).T)))
+        return np.array([root] + [float(np.median(m)) for m in self.measured[1:]])
 
     def directions(self, q: np.ndarray) -> np.ndarray:
         """(..., n) absolute image directions (rad) of the links for joint angles ``q``
@@ -268,16 +274,24 @@ class LinkedDON:
                 starts[..., i, :] = starts[..., p, :] + ends[..., p, :]
         return starts, starts + ends
 
-    def _pivot(self, points: np.ndarray) -> np.ndarray | None:
-        """The root's pivot (working px): the given one, else the place where the moving
-        tree's far ends keep coming back to (`blob_ends`, `recurring_point`)."""
-        if self.known_pivot is not None:
-            return self.known_pivot / self.scale
-        if self.root_pivot is None:
+    def pivot(self) -> np.ndarray | None:
+        """The root's pivot (working px): the given one, else the estimate (None before
+        ``PIVOT_MIN_ENDS`` far ends were seen)."""
+        return self.known_pivot / self.scale if self.known_pivot is not None else self.root_pivot
+
+    def _find_pivot(self, points: np.ndarray) -> None:
+        """Unless given: the place where the moving tree's far ends keep coming back to
+        (`blob_ends`, `recurring_point`), re-solved with every frame's ends until
+        ``PIVOT_ENDS`` were seen, then fixed. The root's length is kept as joint positions,
+        not lengths, so a pivot that moves while it settles leaves nothing stale."""
+        if self.known_pivot is None and len(self.ends) < PIVOT_ENDS:
             self.ends.extend(blob_ends(points))
-            if len(self.ends) >= PIVOT_ENDS:
+            if len(self.ends) >= PIVOT_MIN_ENDS:
                 self.root_pivot = recurring_point(np.array(self.ends), self.band / 2)
-        return self.root_pivot
+            if len(self.ends) >= PIVOT_ENDS:  # the joints were found from a rougher pivot
+                self.root_joints.clear()
+                for measured in self.measured:
+                    measured.clear()
 
     def _measure_lengths(self, points: np.ndarray, pivot: np.ndarray, tip: np.ndarray) -> None:
         """Object regression without lengths: the tree's corners from this frame's moving
@@ -292,7 +306,10 @@ class LinkedDON:
             bend = wrap_angle(_direction(tip - joint) - direction)
             if abs(bend) < math.radians(BENT_DEG):
                 return
-            self.measured[link].append(float(np.hypot(*(joint - start))))
+            if link == 0:
+                self.root_joints.append(joint)
+            else:
+                self.measured[link].append(float(np.hypot(*(joint - start))))
             offset = points - joint
             distance = np.hypot(*offset.T)
             bearing = np.arctan2(-offset[:, 1], offset[:, 0])
@@ -356,7 +373,8 @@ class LinkedDON:
         points = found.reshape(-1, 2).astype(np.float64)
         if len(points) > MAX_POINTS:
             points = points[:: len(points) // MAX_POINTS + 1]
-        pivot = self._pivot(points)
+        self._find_pivot(points)
+        pivot = self.pivot()
         if pivot is None:
             self.sizes.append(None)
             return self.estimate  # nowhere to turn about yet
@@ -403,8 +421,7 @@ class LinkedDON:
     def keypoints(self, q: np.ndarray) -> np.ndarray | None:
         """(n + 1, 2) input pixels (x, y): the root pivot, then each link's tip, once the
         pivot and the lengths are known."""
-        pivot = (self.known_pivot / self.scale if self.known_pivot is not None
-                 else self.root_pivot)
+        pivot = self.pivot()
         lengths = self.lengths()
         if pivot is None or lengths is None:
             return None
