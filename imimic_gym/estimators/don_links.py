@@ -19,9 +19,17 @@ or where a moving link's pivot is. Decisions (each also noted where it acts):
   dozen moving pixels (the arm stopping) can otherwise flip a link.
 - The root pivot (the shoulder, or the elbow for the hand) is given, or found as the
   place where the moving tree's far ends keep coming back to (`blob_ends`,
-  `recurring_point` over the first ``PIVOT_ENDS`` ends): the tips sweep about, the pivot
-  end stays. The one-link pivot (`geometry.PivotEstimator`, the mode of crossing region
-  axes) was tried and lands on the elbow's crossings, 20 px off on chain-2.
+  `recurring_point`): the tips sweep about, the pivot end stays. A first pivot after
+  `PIVOT_MIN_ENDS` ends, re-solved each frame until `PIVOT_ENDS`, then fixed (and the
+  lengths measured about the rougher one dropped). The one-link pivot
+  (`geometry.PivotEstimator`, the mode of crossing region axes) was tried and lands on
+  the elbow's crossings, 20 px off on chain-2. Known bias: on chain-2 the found pivot
+  sits about 5 px below the shoulder keypoint, where the arm leaves the torso's outline;
+  refining it by the fit's score or by crossing the upper arm's lines was tried and
+  made the angles worse.
+- A wrong lock must not last: every `RECHECK_EVERY` fitted frames (once the pivot is
+  fixed) searches from `RESTARTS` root angles across the whole ranges compete with the
+  tracked pose, which a pose explaining `RECHECK_GAIN` more of the pixels replaces.
 - Link lengths are not known from the video a priori. The tip of the tree is the moving
   pixel farthest from the pivot; each joint is the corner of the polyline pivot -> joint
   -> tip that best explains the pixels (`corner`), measured only where the polyline
@@ -31,7 +39,7 @@ or where a moving link's pivot is. Decisions (each also noted where it acts):
 - Binarisation threshold 4 grey levels, not the one-link DON's 12: the upper arm's blue
   sleeve against the blue-grey wall barely differs, and without its pixels the elbow is
   placed by the forearm alone (chain-2 seeds 0-4, given pivot: 10.6/14.3 deg at 12,
-  7.0/7.9 at 4; band 9 px and `STAY` 0.5 were tuned on the same seeds).
+  7.0/7.9 at 4; band 9 px and `STAY` 0.5 were tuned on seeds 0-9).
 - Torque is the robot model's inverse dynamics (`motion.TorqueModel`, ``mj_inverse``), so
   coupling and gravity count. eta is the paper's Eq. (TF) with M_p the area of l_p,
   as the paper has it. No n-link occlusion scenario exists to tune a prediction layer
@@ -68,6 +76,9 @@ PIVOT_MIN_ENDS = 16  # far ends of moving trees seen before a first root pivot
 PIVOT_ENDS = 60  # far ends of moving trees seen before the root pivot is fixed
 MAX_POINTS = 600  # moving pixels the fit looks at (evenly subsampled beyond)
 SWEEPS = 2  # coordinate-search passes per frame
+RECHECK_EVERY = 5  # fitted frames between searches of the whole ranges
+RESTARTS = 6  # root angles those searches start from
+RECHECK_GAIN = 0.1  # how much more a pose found there must explain to replace the tracked
 STAY = 0.5  # score lost per degree a joint moves from its last angle
 
 
@@ -231,6 +242,7 @@ class LinkedDON:
         # Length measurements per link (working px); their median is the link's length.
         self.measured: list[deque[float]] = [deque(maxlen=LENGTH_MEMORY) for _ in range(self.n)]
         self.root_joints: deque[np.ndarray] = deque(maxlen=LENGTH_MEMORY)
+        self.fits = 0
         # Before anything moved: the middle of each joint's range, the guess least far
         # from anywhere the arm can be.
         self.q = self.joint_ranges.mean(axis=1)
@@ -330,35 +342,66 @@ class LinkedDON:
                 return
             start, link = joint, inner
 
-    def _fit(self, points: np.ndarray, pivot: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    def _search(self, points: np.ndarray, pivot: np.ndarray, lengths: np.ndarray,
+                q: np.ndarray, gate_deg: float, sweeps: int, last: np.ndarray | None
+                ) -> tuple[np.ndarray, float]:
         """Object regression: the joint angles (n,) whose links best explain the moving
-        pixels (`segment_score`), by coordinate search from the last angles: each joint
-        in turn over its range (1 degree steps) with the others held, twice. A candidate
-        loses ``STAY`` per degree it moves away from the last angle, so a link with no
+        pixels (`segment_score`), and that score, by coordinate search from ``q``: each
+        joint in turn, with the others held, over its range (plus `MARGIN_DEG`) within
+        ``gate_deg`` of where it starts, in `STEP_DEG` steps, ``sweeps`` times. With
+        ``last``, a candidate loses `STAY` per degree it moves from it, so a link with no
         pixels of its own (at rest) stays where it was instead of wandering."""
-        q = self.q.copy()
-        margin = math.radians(MARGIN_DEG)
-        step = math.radians(STEP_DEG)
-        for _ in range(SWEEPS):
+        q = q.copy()
+        margin, gate = math.radians(MARGIN_DEG), math.radians(gate_deg)
+        best_score = 0.0
+        for _ in range(sweeps):
             for i in range(self.n):
                 lo, hi = self.joint_ranges[i]
-                if self.tracking:  # a joint turns at most GATE_DEG in one frame
-                    gate = math.radians(GATE_DEG)
-                    lo, hi = max(lo, q[i] - gate + margin), min(hi, q[i] + gate - margin)
-                values = np.arange(lo - margin, hi + margin + 1e-9, step)
+                values = np.arange(max(lo - margin, q[i] - gate),
+                                   min(hi + margin, q[i] + gate) + 1e-9, math.radians(STEP_DEG))
+                if len(values) == 0:
+                    continue
                 trial = np.repeat(q[None, :], len(values), axis=0)
                 trial[:, i] = values
-                # The root turns with its children's absolute directions held: the
-                # forearm's pixels then fix where the elbow is, even when the upper arm
-                # did not move.
+                # A joint turns with its children's image directions held: the forearm's
+                # pixels then fix where the elbow is, even when the upper arm is at rest.
                 for c in self.children[i]:
                     trial[:, c] -= values - q[i]
                 starts, ends = self.joints(trial, pivot, lengths)
                 score = segment_score(points, starts, ends, self.band)
-                score -= STAY * np.degrees(np.abs(values - self.q[i]))
+                if last is not None:
+                    score -= STAY * np.degrees(np.abs(values - last[i]))
                 best = int(np.argmax(score))
-                q = trial[best]
-        return q
+                q, best_score = trial[best], float(score[best])
+        return q, best_score
+
+    def _recheck(self, points: np.ndarray, pivot: np.ndarray, lengths: np.ndarray,
+                 q: np.ndarray) -> np.ndarray:
+        """Recover from a wrong lock: coordinate searches over the whole ranges from
+        `RESTARTS` root angles spread over its range (children at mid-range) against the
+        tracked ``q``; the best replaces ``q`` only if it explains `RECHECK_GAIN` more
+        of the pixels. The tracked search only looks `GATE_DEG` around the last angles, so
+        a link once placed on the wrong side of its range (a fast first movement, seen
+        before the lengths settled) would stay there."""
+        starts, ends = self.joints(q[None, :], pivot, lengths)
+        tracked = float(segment_score(points, starts, ends, self.band)[0])
+        found = self._whole_range(points, pivot, lengths, tracked * (1.0 + RECHECK_GAIN))
+        return q if found is None else found
+
+    def _whole_range(self, points: np.ndarray, pivot: np.ndarray, lengths: np.ndarray,
+                     to_beat: float | None) -> np.ndarray | None:
+        """The best of coordinate searches over the whole ranges from `RESTARTS` root
+        angles spread over its range (children at mid-range); None if it does not score
+        above ``to_beat``."""
+        best, best_score = None, -np.inf if to_beat is None else to_beat
+        middle = self.joint_ranges.mean(axis=1)
+        for root in np.linspace(*self.joint_ranges[0], RESTARTS):
+            start = middle.copy()
+            start[0] = root
+            found, score = self._search(points, pivot, lengths, start, 360.0, SWEEPS, None)
+            if score > best_score:
+                best, best_score = found, score
+        return best
 
     def update(self, frame: np.ndarray) -> Estimate:
         """Take the next (H, W, 3) uint8 RGB frame; return the estimate for it."""
@@ -384,7 +427,14 @@ class LinkedDON:
         if lengths is None:
             self.sizes.append(None)
             return self.estimate
-        q = self._fit(points, pivot, lengths)
+        q, _ = self._search(points, pivot, lengths, self.q,
+                            GATE_DEG if self.tracking else 360.0, SWEEPS, self.q)
+        self.fits += 1
+        settled = self.known_pivot is not None or len(self.ends) >= PIVOT_ENDS
+        if settled and self.fits % RECHECK_EVERY == 0:
+            q = self._recheck(points, pivot, lengths, q)
+        tip = points[int(np.argmax(np.hypot(*(points - pivot).T)))]
+        self._measure_lengths(points, pivot, tip)
         self.sizes.append(float(len(points)))
         self.q = q
         self.tracking = True
