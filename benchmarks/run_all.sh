@@ -37,4 +37,6 @@ fi
     --json benchmarks/results/tracking.json
 "$BIN/imimic" eval --paper --json benchmarks/results/paper.json --out benchmarks/results/paper
 "$BIN/python" benchmarks/eval_paper_time.py --json benchmarks/results/paper_time.json
+"$BIN/imimic" eval --scenario chain-2 chain-3 exp4-hand --estimator don --episodes 10 \
+    --json benchmarks/results/don_links.json
 "$BIN/python" benchmarks/write_results.py

@@ -10,6 +10,7 @@ import json
 from pathlib import Path
 
 from results_cnn import cnn_section
+from results_don_links import don_links_section
 from results_tracking import render as render_tracking
 
 HERE = Path(__file__).parent
@@ -273,6 +274,7 @@ Against issue 3's acceptance:
     out.append(real_footage_section())
     out.append(cnn_section())
     out.append(render_tracking(load, table))
+    out.append(don_links_section())
     (HERE / "RESULTS.md").write_text("".join(out))
 
 

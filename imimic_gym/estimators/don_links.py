@@ -38,8 +38,8 @@ or where a moving link's pivot is. Decisions (each also noted where it acts):
   median of its measurements; the links are followed once each has `MIN_MEASUREMENTS`.
 - Binarisation threshold 4 grey levels, not the one-link DON's 12: the upper arm's blue
   sleeve against the blue-grey wall barely differs, and without its pixels the elbow is
-  placed by the forearm alone (chain-2 seeds 0-4, given pivot: 10.6/14.3 deg at 12,
-  7.0/7.9 at 4; band 9 px and `STAY` 0.5 were tuned on seeds 0-9).
+  placed by the forearm alone (chosen on chain-2 seeds 0-4, as were band 9 px and
+  `STAY` 0.5; checked on seeds 5-9; 3 and 6 both did worse than 4).
 - Torque is the robot model's inverse dynamics (`motion.TorqueModel`, ``mj_inverse``), so
   coupling and gravity count. eta is the paper's Eq. (TF) with M_p the area of l_p,
   as the paper has it. No n-link occlusion scenario exists to tune a prediction layer
