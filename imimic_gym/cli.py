@@ -282,9 +282,8 @@ def cmd_mimic(args: argparse.Namespace) -> int:
     if args.estimator != "don" and args.pivot:
         raise SystemExit("imimic mimic: --pivot is DON's; the CNN finds the shoulder, elbow "
                          "and wrist itself")
-    if args.estimator == "don" and args.links != 1:
-        raise SystemExit(f"imimic mimic: DON follows one moving link so far; --links "
-                         f"{args.links} needs another estimator")
+    if args.estimator == "don" and not 1 <= args.links <= 3:
+        raise SystemExit(f"imimic mimic: DON follows 1 to 3 links; --links {args.links}")
     try:
         return _mimic(args)
     except (VideoOpenError, VideoFormatError) as err:
@@ -361,8 +360,8 @@ def _add_mimic(sub: argparse._SubParsersAction) -> None:
     mimic.add_argument("--estimator", default="don", choices=sorted(ESTIMATOR_WRAPPERS),
                        help="the vision estimator (default: %(default)s)")
     mimic.add_argument("--links", type=int, default=1,
-                       help="moving links to copy (default: %(default)s; DON handles 1, "
-                            "the CNN 1 or 2)")
+                       help="moving links to copy, a chain (default: %(default)s; DON "
+                            "handles 1 to 3, the CNN 1 or 2)")
     mimic.add_argument("--control", default="position",
                        choices=("position", "velocity", "torque"),
                        help="robot actuation (default: %(default)s, the paper's servo)")
