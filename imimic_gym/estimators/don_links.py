@@ -72,11 +72,13 @@ STEP_DEG = 1.0  # the direction search's resolution
 BENT_DEG = 25.0  # a joint bent by less than this has no measurable position
 LENGTH_MEMORY = 60  # length measurements kept per link
 MIN_MEASUREMENTS = 3  # before the links are followed
+MEASURE_EVERY = 4  # fitted frames between length measurements once the memory is full
 PIVOT_MIN_ENDS = 16  # far ends of moving trees seen before a first root pivot
 PIVOT_ENDS = 60  # far ends of moving trees seen before the root pivot is fixed
 MAX_POINTS = 600  # moving pixels the fit looks at (evenly subsampled beyond)
 SWEEPS = 2  # coordinate-search passes per frame
-RECHECK_EVERY = 5  # fitted frames between searches of the whole ranges
+RECHECK_EVERY = 10  # fitted frames between searches of the whole ranges
+COARSE_STEP_DEG = 3.0  # their resolution, refined to `STEP_DEG` about the best
 RESTARTS = 6  # root angles those searches start from
 RECHECK_GAIN = 0.1  # how much more a pose found there must explain to replace the tracked
 STAY = 0.5  # score lost per degree a joint moves from its last angle
@@ -343,12 +345,12 @@ class LinkedDON:
             start, link = joint, inner
 
     def _search(self, points: np.ndarray, pivot: np.ndarray, lengths: np.ndarray,
-                q: np.ndarray, gate_deg: float, sweeps: int, last: np.ndarray | None
-                ) -> tuple[np.ndarray, float]:
+                q: np.ndarray, gate_deg: float, sweeps: int, last: np.ndarray | None,
+                step_deg: float = STEP_DEG) -> tuple[np.ndarray, float]:
         """Object regression: the joint angles (n,) whose links best explain the moving
         pixels (`segment_score`), and that score, by coordinate search from ``q``: each
         joint in turn, with the others held, over its range (plus `MARGIN_DEG`) within
-        ``gate_deg`` of where it starts, in `STEP_DEG` steps, ``sweeps`` times. With
+        ``gate_deg`` of where it starts, in ``step_deg`` steps, ``sweeps`` times. With
         ``last``, a candidate loses `STAY` per degree it moves from it, so a link with no
         pixels of its own (at rest) stays where it was instead of wandering."""
         q = q.copy()
@@ -358,7 +360,7 @@ class LinkedDON:
             for i in range(self.n):
                 lo, hi = self.joint_ranges[i]
                 values = np.arange(max(lo - margin, q[i] - gate),
-                                   min(hi + margin, q[i] + gate) + 1e-9, math.radians(STEP_DEG))
+                                   min(hi + margin, q[i] + gate) + 1e-9, math.radians(step_deg))
                 if len(values) == 0:
                     continue
                 trial = np.repeat(q[None, :], len(values), axis=0)
@@ -398,7 +400,9 @@ class LinkedDON:
         for root in np.linspace(*self.joint_ranges[0], RESTARTS):
             start = middle.copy()
             start[0] = root
-            found, score = self._search(points, pivot, lengths, start, 360.0, SWEEPS, None)
+            found, score = self._search(points, pivot, lengths, start, 360.0, SWEEPS, None,
+                                        COARSE_STEP_DEG)
+            found, score = self._search(points, pivot, lengths, found, COARSE_STEP_DEG, 1, None)
             if score > best_score:
                 best, best_score = found, score
         return best
@@ -421,8 +425,12 @@ class LinkedDON:
         if pivot is None:
             self.sizes.append(None)
             return self.estimate  # nowhere to turn about yet
-        tip = points[int(np.argmax(np.hypot(*(points - pivot).T)))]
-        self._measure_lengths(points, pivot, tip)
+        # Lengths are measured every frame until each link has `LENGTH_MEMORY`
+        # measurements, then every `MEASURE_EVERY` frames: a corner costs as much as a fit.
+        full = len(self.root_joints) == LENGTH_MEMORY
+        if not full or self.fits % MEASURE_EVERY == 0:
+            tip = points[int(np.argmax(np.hypot(*(points - pivot).T)))]
+            self._measure_lengths(points, pivot, tip)
         lengths = self.lengths()
         if lengths is None:
             self.sizes.append(None)
