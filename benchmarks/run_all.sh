@@ -39,4 +39,5 @@ fi
 "$BIN/python" benchmarks/eval_paper_time.py --json benchmarks/results/paper_time.json
 "$BIN/imimic" eval --scenario chain-2 chain-3 exp4-hand --estimator don --episodes 10 \
     --json benchmarks/results/don_links.json
+"$BIN/python" benchmarks/don_links_speed.py --json benchmarks/results/don_links_speed.json
 "$BIN/python" benchmarks/write_results.py
