@@ -1,6 +1,8 @@
 import math
 
 import cv2
+import gymnasium as gym
+import mujoco
 import numpy as np
 import pytest
 
@@ -92,3 +94,18 @@ def test_a_bad_tree_is_refused_by_name() -> None:
         LinkedDON((-1, 2, 0), ((0, 1),) * 3)
     with pytest.raises(ValueError, match=r"joint_ranges must give .* each of the 2 links, got 1"):
         LinkedDON((-1, 0), ((0, 1),))
+
+
+def test_torque_is_the_robot_models_inverse_dynamics() -> None:
+    env = gym.make("ImitateVideo-v0", scenario="chain-2", n_frames=5)
+    model = env.unwrapped.model
+    don = LinkedDON((-1, 0), RANGES, fps=FPS, robot=model)
+    estimate = don.run([two_bars(np.array([0.5, 0.5]))] * 3)[-1]  # at rest: no motion
+    data = mujoco.MjData(model)
+    data.qpos[:] = estimate.angles
+    mujoco.mj_forward(model, data)
+    # At rest the torque holds the arm against gravity (the vertical plane's bias force).
+    assert estimate.omega.tolist() == [0.0, 0.0] and estimate.alpha.tolist() == [0.0, 0.0]
+    assert np.abs(data.qfrc_bias).max() > 0.1
+    assert estimate.torque == pytest.approx(data.qfrc_bias, abs=1e-9)
+    env.close()
