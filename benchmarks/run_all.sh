@@ -47,4 +47,7 @@ PYTHONPATH="$before" "$BIN/python" benchmarks/don_stages.py \
 rm -rf "$before"
 "$BIN/python" benchmarks/don_same_estimates.py --base fcce9b4 \
     --json benchmarks/results/don_same_estimates.json
+"$BIN/imimic" eval --scenario chain-2 chain-3 exp4-hand --estimator don --episodes 10 \
+    --json benchmarks/results/don_links.json
+"$BIN/python" benchmarks/don_links_speed.py --json benchmarks/results/don_links_speed.json
 "$BIN/python" benchmarks/write_results.py

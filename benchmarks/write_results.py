@@ -10,6 +10,7 @@ import json
 from pathlib import Path
 
 from results_cnn import cnn_section
+from results_don_links import don_links_section
 from results_don_speed import render as render_don_speed
 from results_tracking import render as render_tracking
 
@@ -271,6 +272,7 @@ Against issue 3's acceptance:
     out.append(real_footage_section())
     out.append(cnn_section())
     out.append(render_tracking(load, table))
+    out.append(don_links_section())
     (HERE / "RESULTS.md").write_text("".join(out))
 
 

@@ -7,11 +7,12 @@ from typing import Any
 import numpy as np
 
 from imimic_gym.clips.cache import load_clip
-from imimic_gym.clips.scenarios import get_scenario
+from imimic_gym.clips.scenarios import ClipSpec, get_scenario
 from imimic_gym.envs.imitate_video import MODALITIES, depth_to_frame
+from imimic_gym.estimators.don_links import LinkedDON
 from imimic_gym.metrics import OCCLUDED, angle_rmse_deg, lag_frames
 
-__all__ = ["ESTIMATORS", "WARM_UP_S", "evaluate_estimator", "make_estimator"]
+__all__ = ["ESTIMATORS", "WARM_UP_S", "evaluate_estimator", "make_estimator", "make_linked_don"]
 
 ESTIMATORS = ("don", "mog2", "camshift", "cnn")
 WARM_UP_S = 0.5  # frame-differencing estimators see nothing until the arm has moved
@@ -39,6 +40,13 @@ def make_estimator(name: str, clip_meta: dict[str, Any], fps: float,
                          joint_range=joint_range, **params)
 
 
+def make_linked_don(spec: ClipSpec, fps: float, **params: Any) -> LinkedDON:
+    """DON for a scenario with several moving links (`LinkedDON`), set up from its spec:
+    the tree of links, the joint ranges and the reference direction."""
+    return LinkedDON(spec.link_parents, spec.joint_ranges, fps=fps,
+                     reference_direction=spec.reference_direction, **params)
+
+
 def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
                        first_seed: int = 1000, modality: str = "rgb") -> dict[str, Any]:
     """Run ``estimator`` over ``episodes`` held-out clips of ``scenario`` (seeds from
@@ -47,7 +55,8 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
     ``modality="depth"`` feeds the estimator the clip's depth video as grey frames, near =
     bright, exactly as ``ImitateVideo-v0(modality="depth")`` shows it.
 
-    Per episode: angle RMSE (deg) over all frames and after ``WARM_UP_S``, lag (frames,
+    Per episode: angle RMSE (deg) over all frames and after ``WARM_UP_S`` (and, with
+    several links, after it per joint: ``rmse_deg_settled_q1`` ...), lag (frames,
     cross-correlation peak, after warm-up), mean trust eta, and where the clip has
     occluded frames (over 10% of the moving links hidden), the mean eta on those frames
     and on the others, and the RMSE on them with the prediction layer off and on (DON
@@ -56,16 +65,19 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
     if modality not in MODALITIES:
         raise ValueError(f"unknown modality {modality!r}; expected one of {MODALITIES}")
     spec = get_scenario(scenario)
-    if spec.n_links != 1:
-        raise ValueError(f"the estimators handle one moving link so far; {scenario!r} "
-                         f"has {spec.n_links}")
+    if spec.n_links != 1 and estimator != "don":
+        raise ValueError(f"the estimators other than DON follow one moving link; "
+                         f"{scenario!r} has {spec.n_links}")
     rows = []
     for seed in range(first_seed, first_seed + episodes):
         clip = load_clip(spec.replace(seed=seed), progress=False)
         frames = clip.frames if modality == "rgb" else depth_to_frame(clip.depth)
         truth = clip.truth.angles
         warm = round(WARM_UP_S * clip.fps)
-        est = make_estimator(estimator, clip.meta, clip.fps, spec.joint_ranges[0])
+        if spec.n_links == 1:
+            est = make_estimator(estimator, clip.meta, clip.fps, spec.joint_ranges[0])
+        else:
+            est = make_linked_don(spec, clip.fps)
         estimates = est.run(frames)
         angles = np.array([e.angles for e in estimates])
         row: dict[str, Any] = {
@@ -75,6 +87,10 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
             "lag_frames": lag_frames(truth[warm:], angles[warm:]),
             "mean_trust": float(np.mean([e.trust for e in estimates])),
         }
+        if spec.n_links > 1:
+            for joint in range(spec.n_links):
+                row[f"rmse_deg_settled_q{joint + 1}"] = angle_rmse_deg(angles[warm:, joint],
+                                                                      truth[warm:, joint])
         occluded = clip.truth.occlusion > OCCLUDED
         row["occluded_frames"] = int(occluded.sum())
         if occluded.any() and not occluded.all():

@@ -33,16 +33,17 @@ def test_demo_defaults_to_don_where_it_sees_the_arm(tmp_path, capsys) -> None:
     # Vision in the loop: worse than the oracle's 2 degrees, far better than standing still.
     assert 0.3 < metrics["rmse_deg"] < 8.0
     capsys.readouterr()
-    assert main(["demo", "--scenario", "chain-2", "--out", str(tmp_path / "two"),
+    assert main(["demo", "--scenario", "chain-3", "--out", str(tmp_path / "three"),
                  "--frames", "10"]) == 0
     assert "runs the oracle" in capsys.readouterr().out
-    metrics = json.loads((tmp_path / "two" / "metrics.json").read_text())
+    metrics = json.loads((tmp_path / "three" / "metrics.json").read_text())
     assert metrics["estimator"] == "oracle"
 
 
-def test_demo_refuses_don_on_several_links() -> None:
-    with pytest.raises(SystemExit, match="one moving link so far; chain-2 has 2"):
-        main(["demo", "--scenario", "chain-2", "--estimator", "don", "--frames", "10"])
+def test_demo_runs_don_on_two_links(tmp_path) -> None:
+    assert main(["demo", "--scenario", "chain-2", "--out", str(tmp_path), "--frames", "10"]) == 0
+    metrics = json.loads((tmp_path / "metrics.json").read_text())
+    assert metrics["estimator"] == "don" and metrics["controller"] == "pd"
 
 
 def test_clip_writes_mp4_and_truth(tmp_path) -> None:

@@ -71,6 +71,6 @@ def test_registries_refuse_unknown_names() -> None:
         RunConfig("mars", "don", "position", seeds=(0,))
 
 
-def test_estimator_only_eval_refuses_several_links_by_name() -> None:
-    with pytest.raises(SystemExit, match="one moving link so far; 'chain-2' has 2"):
-        main(["eval", "--scenario", "chain-2", "--episodes", "1"])
+def test_estimator_only_eval_refuses_baselines_on_several_links_by_name() -> None:
+    with pytest.raises(SystemExit, match="follow one moving link; 'chain-2' has 2"):
+        main(["eval", "--scenario", "chain-2", "--estimator", "mog2", "--episodes", "1"])

@@ -14,6 +14,7 @@ import numpy as np
 from gymnasium import spaces
 
 from imimic_gym.estimators.don import DON
+from imimic_gym.estimators.don_links import LinkedDON
 from imimic_gym.estimators.types import Estimate, Estimator
 
 __all__ = [
@@ -122,23 +123,24 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
 class DONObservation(EstimatorObservation):
     """`EstimatorObservation` with DON, set up from the env: its frame rate, the clip's
     reference direction, the joint's range, and the robot's model for torques.
-    ``don_params`` go to `DON` and override these."""
+    ``don_params`` go to `DON` and override these. An arm with several links gets DON for
+    a tree of links (`LinkedDON`), with the arm's tree and joint ranges."""
 
     def __init__(self, env: gym.Env, keep_frame: bool = True, **don_params: Any) -> None:
         gym.utils.RecordConstructorArgs.__init__(self, keep_frame=keep_frame, **don_params)
         inner = env.unwrapped
-        if inner.arm.n_links != 1:
-            raise ValueError(
-                f"DON handles one moving link so far; this env's arm has {inner.arm.n_links}"
-            )
         params = {
             "fps": float(inner.clip.fps),
             "reference_direction": float(inner.clip.meta.get("reference_direction", 0.0)),
             "robot": inner.model,
-            "joint_range": tuple(inner.arm.joint_ranges[0]),
-            **don_params,
         }
-        super().__init__(env, DON(**params), keep_frame=keep_frame)
+        if inner.arm.n_links == 1:
+            estimator = DON(**{"joint_range": tuple(inner.arm.joint_ranges[0]), **params,
+                               **don_params})
+        else:
+            estimator = LinkedDON(inner.arm.link_parents, inner.arm.joint_ranges,
+                                  **{**params, **don_params})
+        super().__init__(env, estimator, keep_frame=keep_frame)
 
 
 class CNNObservation(EstimatorObservation):

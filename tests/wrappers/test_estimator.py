@@ -85,7 +85,9 @@ def test_wrapper_refuses_an_env_without_frames() -> None:
         EstimatorObservation(NoFrames(), estimator=None)  # type: ignore[arg-type]
 
 
-def test_don_wrapper_refuses_more_than_one_link_for_now() -> None:
-    with pytest.raises(ValueError, match="DON handles one moving link so far; this env's arm "
-                                         "has 2"):
-        DONObservation(gym.make("ImitateVideo-v0", scenario="chain-2", n_frames=5))
+def test_don_wrapper_follows_several_links() -> None:
+    env = DONObservation(gym.make("ImitateVideo-v0", scenario="chain-2", n_frames=5),
+                         keep_frame=False)
+    obs, _ = env.reset(seed=0)
+    assert env.observation_space["estimate"].shape == (10,)
+    assert obs["estimate"].shape == (10,) and np.all(np.isfinite(obs["estimate"]))
