@@ -51,7 +51,7 @@ from imimic_gym.estimators.motion import PathEstimator, TorqueModel
 from imimic_gym.estimators.types import Estimate
 from imimic_gym.metrics import wrap_angle
 
-__all__ = ["DON", "FrameShapeError", "SlidingExtrema"]
+__all__ = ["DON", "FrameShapeError", "MotionMask", "SlidingExtrema"]
 
 # How far (working px) a moving region may reach back past the pivot and still be the
 # link: a sliver of l_1 starts at the pivot, give or take the link's rounded end.
@@ -109,6 +109,67 @@ class SlidingExtrema:
             self.block, self.run_min, self.run_max = [], None, None
 
 
+class MotionMask:
+    """DON layers 1-3: each frame in, l_1 = (union_p delta2_p) & delta1_1 (paper Eq. OL)
+    out, the pixels that surely moved, (h, w) uint8 at the working resolution, nonzero
+    where the pixel moves. Shared by the one-link `DON` and `LinkedDON`.
+
+    Args:
+        window: N, the frames in the input layer (paper: 10).
+        gaussian: the paper's Gaussian kernel size at 240 rows.
+        threshold: binarisation threshold of a difference, grey levels, any channel.
+        working_height: rows of the working resolution.
+        name: the estimator's name, for error messages.
+    """
+
+    def __init__(self, window: int = 10, gaussian: int = 15, threshold: int = 12,
+                 working_height: int = 120, name: str = "DON") -> None:
+        if window < 2:
+            raise ValueError(f"window must be at least 2 frames, got {window}")
+        self.frames = WorkingFrames(working_height, gaussian, name=name)
+        self.window, self.threshold = window, threshold
+        self.reset()
+
+    def reset(self) -> None:
+        self.frames.reset()
+        self.previous: np.ndarray | None = None
+        self.extrema = SlidingExtrema(self.window)
+
+    @property
+    def scale(self) -> float:
+        """Input pixels per working pixel (known after the first frame)."""
+        return self.frames.scale
+
+    def __call__(self, frame: np.ndarray) -> np.ndarray | None:
+        """l_1 for ``frame`` (H, W, 3) uint8 RGB; None for the first frame."""
+        image = self.frames(frame)  # layer 1: input window, downscaled and smoothed
+        mask = None if self.previous is None else self._moving_pixels(image)
+        self.previous = image
+        self.extrema.push(image)
+        return mask
+
+    def _moving_pixels(self, image: np.ndarray) -> np.ndarray:
+        tau = self.threshold
+        # DON layer 2: frame difference, paper Eqs. (f1), (f2), binarised.
+        # A pixel differs when any colour channel differs by more than tau; f_t differs
+        # from some f_{t-p} exactly when it rises above the window's minimum or falls below
+        # its maximum, so one saturating difference each, merged, covers every delta2_p.
+        delta1 = _any_channel_above(cv2.absdiff(image, self.previous), tau)
+        # The union matters only where delta1 is set: within its bounding box (2-40% of
+        # the frame in the rendered scenarios; nothing at all on a still frame).
+        left, top, width, height = cv2.boundingRect(delta1)
+        if width == 0:
+            return delta1
+        box = (slice(top, top + height), slice(left, left + width))
+        low, high = self.extrema.extrema(box)
+        current = image[box]
+        union = _any_channel_above(
+            cv2.max(cv2.subtract(current, low), cv2.subtract(high, current)), tau)
+        # DON layer 3: object identification, paper Eq. (OL).
+        cv2.bitwise_and(delta1[box], union, dst=delta1[box])
+        return delta1
+
+
 class DON:
     """The vision-to-motion optical network for one moving link.
 
@@ -149,9 +210,7 @@ class DON:
         min_area: int = 12,
         joint_range: tuple[float, float] | None = None,
     ) -> None:
-        if window < 2:
-            raise ValueError(f"window must be at least 2 frames, got {window}")
-        self.frames = WorkingFrames(working_height, gaussian, name="DON")
+        self.motion = MotionMask(window, gaussian, threshold, working_height)
         self.fps, self.window, self.threshold = float(fps), window, threshold
         self.reference_direction = reference_direction
         self.known_pivot = None if pivot is None else np.asarray(pivot, dtype=np.float64)
@@ -161,9 +220,7 @@ class DON:
         self.reset()
 
     def reset(self) -> None:
-        self.frames.reset()
-        self.previous: np.ndarray | None = None
-        self.extrema = SlidingExtrema(self.window)
+        self.motion.reset()
         self.link: LinkTracker | None = None  # made on the first frame, once scale is known
         self.path = PathEstimator(1, self.fps, self.window)
         # M_p of the trust factor: the link's visible length per frame, None where the
@@ -182,31 +239,7 @@ class DON:
     @property
     def scale(self) -> float:
         """Input pixels per working pixel."""
-        return self.frames.scale
-
-    # Layers 2 and 3: frame differences and object identification ----------------------
-    def _moving_pixels(self, image: np.ndarray) -> np.ndarray:
-        """l_1 = (union_p delta2_p) & delta1_1 (paper Eq. OL), (h, w) uint8, nonzero where
-        the pixel moves."""
-        tau = self.threshold
-        # DON layer 2: frame difference, paper Eqs. (f1), (f2), binarised.
-        # A pixel differs when any colour channel differs by more than tau; f_t differs
-        # from some f_{t-p} exactly when it rises above the window's minimum or falls below
-        # its maximum, so one saturating difference each, merged, covers every delta2_p.
-        delta1 = _any_channel_above(cv2.absdiff(image, self.previous), tau)
-        # The union matters only where delta1 is set: within its bounding box (2-40% of
-        # the frame in the rendered scenarios; nothing at all on a still frame).
-        left, top, width, height = cv2.boundingRect(delta1)
-        if width == 0:
-            return delta1
-        box = (slice(top, top + height), slice(left, left + width))
-        low, high = self.extrema.extrema(box)
-        current = image[box]
-        union = _any_channel_above(
-            cv2.max(cv2.subtract(current, low), cv2.subtract(high, current)), tau)
-        # DON layer 3: object identification, paper Eq. (OL).
-        cv2.bitwise_and(delta1[box], union, dst=delta1[box])
-        return delta1
+        return self.motion.scale
 
     # Layer 4b: trust factor -------------------------------------------------------------
     def trust_factor(self) -> float:
@@ -274,18 +307,13 @@ class DON:
 
     def update(self, frame: np.ndarray) -> Estimate:
         """Take the next (H, W, 3) uint8 RGB frame; return the estimate for it."""
-        image = self.frames(frame)
-        if self.previous is None:
-            self.previous = image
-            self.extrema.push(image)
+        mask = self.motion(frame)
+        if mask is None:
             pivot = None if self.known_pivot is None else self.known_pivot / self.scale
             self.link = LinkTracker(self.reference_direction, pivot, self.joint_range,
                                     self.min_area, reach_back=REACH_BACK_PX)
             return self.estimate
-        mask = self._moving_pixels(image)
         self.last_mask = mask
-        self.previous = image
-        self.extrema.push(image)
         area = cv2.countNonZero(mask)
 
         if area < self.min_area:

@@ -1,5 +1,5 @@
 """DON for a tree of 2-3 links: the paper's object regression layer (§3, "a line per
-link"), on top of DON's layers 1-3 (`don.py`'s units, in `MotionMask`).
+link"), on top of DON's layers 1-3 (`don.MotionMask`).
 
 The paper fits a straight line per link to the moving pixels and takes the joint angles
 as the angles between the lines, but never says which moving pixel belongs to which link
@@ -58,13 +58,12 @@ import cv2
 import mujoco
 import numpy as np
 
-from imimic_gym.estimators.don import SlidingExtrema, _any_channel_above
-from imimic_gym.estimators.frames import WorkingFrames
+from imimic_gym.estimators.don import MotionMask
 from imimic_gym.estimators.motion import PathEstimator, TorqueModel
 from imimic_gym.estimators.types import Estimate
 from imimic_gym.metrics import wrap_angle
 
-__all__ = ["LinkedDON", "MotionMask"]
+__all__ = ["LinkedDON"]
 
 MARGIN_DEG = 15.0  # how far past its joint range a link may still be searched for
 GATE_DEG = 15.0  # how far a joint may turn in one frame
@@ -82,46 +81,6 @@ COARSE_STEP_DEG = 3.0  # their resolution, refined to `STEP_DEG` about the best
 RESTARTS = 6  # root angles those searches start from
 RECHECK_GAIN = 0.1  # how much more a pose found there must explain to replace the tracked
 STAY = 0.5  # score lost per degree a joint moves from its last angle
-
-
-class MotionMask:
-    """DON layers 1-3 (`don.py`'s units): each frame in, l_1 = (union delta2) & delta1_1
-    out, the pixels that surely moved, (h, w) uint8 at the working resolution.
-
-    Args:
-        window: N, the frames in the input layer (paper: 10).
-        gaussian: the paper's Gaussian kernel size at 240 rows.
-        threshold: binarisation threshold of a difference, grey levels, any channel.
-        working_height: rows of the working resolution.
-    """
-
-    def __init__(self, window: int = 10, gaussian: int = 15, threshold: int = 4,
-                 working_height: int = 120) -> None:
-        if window < 2:
-            raise ValueError(f"window must be at least 2 frames, got {window}")
-        self.frames = WorkingFrames(working_height, gaussian, name="LinkedDON")
-        self.window, self.threshold = window, threshold
-        self.reset()
-
-    def reset(self) -> None:
-        self.frames.reset()
-        self.previous: np.ndarray | None = None
-        self.extrema = SlidingExtrema(self.window)
-
-    def __call__(self, frame: np.ndarray) -> np.ndarray | None:
-        """The mask for ``frame`` (H, W, 3) uint8 RGB; None for the first frame."""
-        image = self.frames(frame)
-        mask = None
-        if self.previous is not None:
-            tau = self.threshold
-            delta1 = _any_channel_above(cv2.absdiff(image, self.previous), tau)
-            low, high = self.extrema.extrema()
-            union = _any_channel_above(
-                cv2.max(cv2.subtract(image, low), cv2.subtract(high, image)), tau)
-            mask = cv2.bitwise_and(delta1, union)
-        self.previous = image
-        self.extrema.push(image)
-        return mask
 
 
 def segment_score(points: np.ndarray, starts: np.ndarray, ends: np.ndarray,
@@ -227,7 +186,7 @@ class LinkedDON:
         self.joint_ranges = np.array([(float(lo), float(hi)) for lo, hi in joint_ranges])
         if robot is not None and robot.nv != self.n:
             raise ValueError(f"robot model has {robot.nv} joints, the tree has {self.n}")
-        self.mask = MotionMask(window, gaussian, threshold, working_height)
+        self.mask = MotionMask(window, gaussian, threshold, working_height, name="LinkedDON")
         self.fps, self.window = float(fps), window
         self.reference_direction = float(reference_direction)
         self.known_pivot = None if pivot is None else np.asarray(pivot, dtype=np.float64)
