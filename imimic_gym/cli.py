@@ -9,7 +9,15 @@ from pathlib import Path
 
 import imimic_gym  # noqa: F401  (registers the env, sets headless GL)
 
-ESTIMATORS = ("don", "cnn", "oracle")
+# What `imimic demo --estimator` offers (each is a `suite.ESTIMATORS` wrapper), as the demo
+# introduces it.
+DEMO_ESTIMATORS = {
+    "don": "DON (frame differences, no labels)",
+    "cnn": "CNN + refiner (shipped checkpoint)",
+    "mog2": "MOG2 background subtraction (baseline)",
+    "camshift": "CamShift colour tracking (baseline)",
+    "oracle": "oracle (the true angles)",
+}
 
 
 def _save_json(path: str | None, data: object) -> None:
@@ -62,17 +70,11 @@ def cmd_demo(args: argparse.Namespace) -> int:
         print("  estimator: oracle. The robot reads the true angles: this shows the control "
               "loop's upper bound, not vision.")
         controller = OracleController(env)
-    elif args.estimator == "cnn":
-        from imimic_gym.wrappers import CNNObservation
-
-        print("  estimator: CNN + refiner (shipped checkpoint); controller: PD on its angles")
-        env = CNNObservation(env, keep_frame=False)
-        controller = PDController(env, EstimateTarget(env))
     else:
-        from imimic_gym.wrappers import DONObservation
+        from imimic_gym.suite import ESTIMATORS as SUITE_ESTIMATORS
 
-        print("  estimator: DON (frame differences, no labels); controller: PD on its angles")
-        env = DONObservation(env, keep_frame=False)
+        print(f"  estimator: {DEMO_ESTIMATORS[args.estimator]}; controller: PD on its angles")
+        env = SUITE_ESTIMATORS[args.estimator](env)
         controller = PDController(env, EstimateTarget(env))
     trajectory = run_episode(env, controller, seed=args.seed, record=True)
     fps = env.unwrapped.clip.fps
@@ -421,10 +423,10 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--seed", type=int, default=0, help="clip seed (default: %(default)s)")
     demo.add_argument("--control", default="position", choices=("position", "velocity", "torque"),
                       help="robot actuation (default: %(default)s, the paper's servo)")
-    demo.add_argument("--estimator", default=None, choices=ESTIMATORS,
+    demo.add_argument("--estimator", default=None, choices=tuple(DEMO_ESTIMATORS),
                       help="where the robot's targets come from: DON on the video (1 to 3 "
-                           "links), the CNN + refiner (a person's arm, 1 or 2 links), or "
-                           "the true angles (oracle: the control loop's upper bound, no "
+                           "links), the CNN + refiner (a person's arm, 1 or 2 links), the "
+                           "MOG2 or CamShift baseline (1 link), or the true angles (oracle: the control loop's upper bound, no "
                            "vision); default: don for 1 or 2 links, oracle for the others")
     demo.add_argument("--frames", type=int, default=None,
                       help="clip length in frames (default: the scenario's, 150 = 5 s)")

@@ -46,6 +46,17 @@ def test_demo_runs_don_on_two_links(tmp_path) -> None:
     assert metrics["estimator"] == "don" and metrics["controller"] == "pd"
 
 
+
+def test_demo_offers_every_suite_estimator(tmp_path) -> None:
+    from imimic_gym.cli import DEMO_ESTIMATORS
+    from imimic_gym.suite import ESTIMATORS
+
+    assert set(DEMO_ESTIMATORS) == set(ESTIMATORS)
+    assert main(["demo", "--estimator", "mog2", "--out", str(tmp_path), "--frames", "90"]) == 0
+    metrics = json.loads((tmp_path / "metrics.json").read_text())
+    assert metrics["estimator"] == "mog2" and metrics["controller"] == "pd"
+    assert 0.3 < metrics["rmse_deg"] < 15.0
+
 def test_clip_writes_mp4_and_truth(tmp_path) -> None:
     assert main(["clip", "--scenario", "chain-2", "--frames", "5", "--out", str(tmp_path)]) == 0
     truth = json.loads((tmp_path / "chain-2-seed0.json").read_text())

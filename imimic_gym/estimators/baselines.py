@@ -114,6 +114,18 @@ class MOG2Estimator(_MaskEstimator):
     def _mask(self, image: np.ndarray) -> np.ndarray:
         return self.subtractor.apply(image) > 0
 
+    # OpenCV's subtractor cannot be pickled or deep-copied (gymnasium deep-copies a
+    # wrapper's arguments to record its spec; vector envs pickle them): a copy starts a
+    # new background model, as after `reset`.
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state.pop("subtractor", None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self.subtractor = cv2.createBackgroundSubtractorMOG2(detectShadows=False)
+
 
 class CamShiftEstimator(_MaskEstimator):
     """CamShift follows the hue of the first region that moves; its rotated rectangle is

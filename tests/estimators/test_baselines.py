@@ -36,3 +36,17 @@ def test_baseline_output_is_defined_on_still_and_black_input(estimator) -> None:
     black = np.zeros((H, W, 3), dtype=np.uint8)
     for estimate in estimator(fps=FPS).run([black] * 12):
         assert np.all(np.isfinite(estimate.as_vector())) and estimate.trust == 1.0
+
+
+@pytest.mark.parametrize("estimator", [MOG2Estimator, CamShiftEstimator])
+def test_a_copied_or_pickled_baseline_runs_like_a_new_one(estimator) -> None:
+    """gymnasium deep-copies a wrapper's arguments, vector envs pickle them."""
+    import copy
+    import pickle
+
+    angles = sweep(3.0, 60)
+    frames = [coloured_bar(a) for a in angles]
+    original = estimator(fps=FPS, joint_range=(0.0, math.pi))
+    expected = [e.angles[0] for e in original.run(frames)]
+    for clone in (copy.deepcopy(original), pickle.loads(pickle.dumps(original))):
+        assert [e.angles[0] for e in clone.run(frames)] == expected
