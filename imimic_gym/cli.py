@@ -427,7 +427,8 @@ def build_parser() -> argparse.ArgumentParser:
                       help="where the robot's targets come from: DON on the video (1 to 3 "
                            "links), the CNN + refiner (a person's arm, 1 or 2 links), the "
                            "MOG2 or CamShift baseline (1 link), or the true angles (oracle: "
-                           "the control loop's upper bound, no vision); default: don for 1 or 2 links, oracle for the others")
+                           "the control loop's upper bound, no vision); default: don for 1 "
+                           "or 2 links, oracle for the others")
     demo.add_argument("--frames", type=int, default=None,
                       help="clip length in frames (default: the scenario's, 150 = 5 s)")
     demo.add_argument("--out", default="demo_out", help="output folder (default: %(default)s)")
