@@ -11,6 +11,7 @@ from pathlib import Path
 
 from results_cnn import cnn_section
 from results_don_links import don_links_section
+from results_don_pivot import render as render_don_pivot
 from results_don_speed import render as render_don_speed
 from results_tracking import render as render_tracking
 
@@ -218,7 +219,7 @@ exp3-forearm-low exp3-forearm-high exp1-noisy-fast --estimator don --episodes {e
        [[f"`{r['scenario']}`", f"{ev(r['scenario'], 'don'):.2f}", f"{r['mean']['rmse_deg_settled']:.2f}",
          f"{r['mean']['lag_frames']:.1f}", f"{r['mean']['mean_trust']:.2f}"] for r in depth])}
 
-Depth is as good as colour on the servo and better on the person against clutter: a
+Depth is close to colour on the servo and better on the person against clutter: a
 depth frame shows no background texture and no coloured posters, only what stands out
 in distance. It does not help against the occluder, which stands out in depth too.
 
@@ -234,25 +235,12 @@ Against issue 3's acceptance:
   {per_clip('exp3-forearm-none', 'don')}).
 - `exp3-forearm-high` at most 10 degrees: {verdict(ev('exp3-forearm-high', 'don') <= 10)} ({ev('exp3-forearm-high', 'don'):.1f}; per clip
   {per_clip('exp3-forearm-high', 'don')}).
-  Where the error comes from, traced frame by frame: on `exp3-forearm-none` DON holds
-  its last angle while the forearm turns slowly, because a slow forearm leaves no long
-  sliver along the link, only a compact blob at the hand, which the link geometry
-  refuses (a round blob has no direction, and the distractor ball is one too). On the
-  occluder clips the pivot is often never agreed, or agreed where the board's edges
-  cross (one clip locked it at the image's top border), and until then DON follows the
-  longest moving region, often the board's vertical edge. Using the joint's range in
-  the link geometry that every estimator shares (a region must lie where the joint can
-  turn, its range plus 20 degrees; a line crossing counts toward the pivot only if both
-  regions lie in that fan seen from it) removed the flipped readings and many wrong
-  pivots: DON's settled RMSE over these ten clips went from 16.1 / 58.2 / 49.4 degrees
-  (none / low / high occlusion; the same command on the commit before) to the figures
-  above, and the baselines gained as much. Tried and not kept, each better on
-  some clips and worse on others: a bearing-only reading from compact regions near the
-  last direction, and dropping the pivot after 15 moving frames without the link.
+{render_don_pivot(load, table)}
 - Trust factor strictly decreasing from none to low to high occlusion:
   {verdict(ev('exp3-forearm-none', 'don', 'mean_trust') > ev('exp3-forearm-low', 'don', 'mean_trust') > ev('exp3-forearm-high', 'don', 'mean_trust'))}; mean eta {ev('exp3-forearm-none', 'don', 'mean_trust'):.2f}, {ev('exp3-forearm-low', 'don', 'mean_trust'):.2f}, {ev('exp3-forearm-high', 'don', 'mean_trust'):.2f}. eta is the paper's formula with M_p
   the link's visible length (the span of its moving regions; a link that vanishes while
-  turning counts as 0). On a hand-built bar it reads what it should
+  turning counts as 0 until it is seen again, so a long occlusion keeps eta at 0 rather
+  than drifting back to 1 once the last measurement leaves the window). On a hand-built bar it reads what it should
   (`tests/estimators/test_don.py`: above 0.85 in the clear, about 0.45 with the outer
   half hidden, 0 with most of it hidden). On the rendered clips its mean on occluded
   frames against clear ones is {ev('exp3-forearm-low', 'don', 'mean_trust_occluded'):.2f} against {ev('exp3-forearm-low', 'don', 'mean_trust_clear'):.2f} in `exp3-forearm-low` and
@@ -265,9 +253,7 @@ Against issue 3's acceptance:
   {ev('exp3-forearm-low', 'mog2'):.1f} and {ev('exp3-forearm-low', 'camshift'):.1f}). DON beats both on {beats_both('don')}; CamShift
   beats both on {beats_both('camshift')}: it follows a colour, which works where the arm's skin stands out
   and fails wherever the arm has no distinct hue (the paper link of `exp2-servo`).
-- `exp4-hand` (the paper's experiment 4: forearm, thumb and index finger): the scenario
-  and its matching branching robot exist (the oracle table above tracks it); DON for its
-  three joints, like DON for the 2-link chain, is not built yet, so it has no DON row.
+- 2-link chain and `exp4-hand`: DON for several links, in its own section below.
 """]
     out.append(real_footage_section())
     out.append(cnn_section())
