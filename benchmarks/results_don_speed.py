@@ -22,7 +22,7 @@ def render(load: Callable[[str], dict],
                  else f"not bit-identical; largest differences: {differences}")
     bench = next(row for row in load("don")["rows"] if row["resolution"] == after["resolution"])
     return f"""
-At {after['resolution']} the margin is small: with another job running on this 2-core machine,
+At {after['resolution']} the margin is small: on this shared 2-core machine,
 DON / raw MOG2 there measured {bench['ratio_mog2']:.2f} in the bench above and
 {after['ratio_mog2_median']:.2f} (medians; {after['ratio_mog2_min']:.2f} of minima) over
 {after['repeats']} alternations of the stage script below.
