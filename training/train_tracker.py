@@ -66,6 +66,8 @@ class Args:
     there to this power: 1 weighs scenarios by relative improvement, 0 by raw error"""
     history: int = 6
     """extra frames of estimate history in the policy's features (TrackerFeatures)"""
+    rate_history: int = 0
+    """frames of past estimated omega and trust in the policy's features (TrackerFeatures)"""
     hold_until_moving: bool = True
     """the position controller under the residual holds the start pose until DON moves"""
     net_arch: tuple[int, ...] = (64, 64)
@@ -140,7 +142,8 @@ def make_env(scenario: str, seeds: tuple[int, ...], args: Args,
     env = gym.make("ImitateVideo-v0", scenario=scenario, control=args.control,
                    clip_seeds=seeds, **kwargs)
     return ResidualTracking(DONObservation(env, keep_frame=False), args.residual_scale,
-                            reward_scale, args.hold_until_moving, args.history)
+                            reward_scale, args.hold_until_moving, args.history,
+                            args.rate_history)
 
 
 def reward_scales(args: Args, seeds: tuple[int, ...]) -> dict[str, float]:
@@ -283,6 +286,7 @@ def main() -> None:
         "reward_scales": scales,
         "hold_until_moving": args.hold_until_moving,
         "history_frames": args.history,
+        "rate_history_frames": args.rate_history,
         "control": args.control,
         "estimator": "don",
         "scenarios": list(args.scenarios),

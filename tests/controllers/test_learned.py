@@ -76,3 +76,24 @@ def test_a_corrupt_tracker_checkpoint_is_named(tmp_path) -> None:
     with pytest.raises(CheckpointError, match=r"tracker checkpoint .*tracker\.pt is not a SAC "
                                               r"policy state_dict"):
         LearnedController(don_env(n_frames=10), broken)
+
+
+def test_the_rate_history_holds_the_past_frames_omega_and_trust() -> None:
+    from imimic_gym.controllers.learned import OMEGA_SCALE, TrackerFeatures
+    from imimic_gym.wrappers import estimate_fields
+
+    env = don_env(n_frames=40, clip_seeds=(100,))
+    features = TrackerFeatures(env, history=2, rate_history=3)
+    assert features.size == (8 + 2 + 3) * 1 + 3 + 3 == features.space.shape[0]
+    fields = estimate_fields(1)
+    obs, _ = env.reset(seed=0)
+    rates = []
+    for _ in range(30):  # DON's omega is 0 until its window of frames has filled
+        vector = features(obs)
+        rates.append([obs["estimate"][fields["omega"]][0] / OMEGA_SCALE,
+                      obs["estimate"][fields["trust"]][0]])
+        obs, *_ = env.step(np.zeros(1, dtype=np.float32))
+    # The last 6 entries: (omega, trust) one, two and three frames before the last call.
+    expected = np.clip(np.array(rates[-2:-5:-1]).ravel(), -5.0, 5.0)
+    np.testing.assert_allclose(vector[-6:], expected, rtol=1e-6, atol=1e-6)
+    assert len(set(np.round(expected[0::2], 6))) > 1  # the arm moves: omegas differ
