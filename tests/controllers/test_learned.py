@@ -7,8 +7,13 @@ import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import imimic_gym  # noqa: F401
-from imimic_gym.controllers import SCRIPTED_CONTROLLERS, PositionController
-from imimic_gym.controllers.learned import DEFAULT_CHECKPOINT, LearnedController, ResidualTracking
+from imimic_gym.controllers import SCRIPTED_CONTROLLERS
+from imimic_gym.controllers.learned import (
+    DEFAULT_CHECKPOINT,
+    LearnedController,
+    ResidualTracking,
+    checkpoint_control,
+)
 from imimic_gym.rollout import run_episode
 from imimic_gym.wrappers import DONObservation
 
@@ -22,9 +27,11 @@ def test_the_shipped_policy_loads_with_its_metadata_and_tracks_the_servo() -> No
     meta = json.loads(DEFAULT_CHECKPOINT.with_suffix(".json").read_text())
     assert meta["estimator"] == "don" and "exp2-servo" in meta["scenarios"]
     assert max(meta["train_seeds"]) < 1000 and max(meta["val_seeds"]) < 1000
-    env = don_env(clip_seeds=(100,))
+    control = checkpoint_control()
+    assert control == meta["control"]
+    env = don_env(control=control, clip_seeds=(100,))
     learned = run_episode(env, LearnedController(env), seed=0).metrics()
-    plain = run_episode(env, PositionController(env), seed=0).metrics()
+    plain = run_episode(env, SCRIPTED_CONTROLLERS[control](env), seed=0).metrics()
     # Clip 100 starts with DON 34 degrees off for four frames (see test_scripted).
     assert learned["rmse_deg"] < plain["rmse_deg"]
     assert learned["rmse_deg"] < 4.0
@@ -75,7 +82,7 @@ def test_a_corrupt_tracker_checkpoint_is_named(tmp_path) -> None:
     broken.with_suffix(".json").write_text(DEFAULT_CHECKPOINT.with_suffix(".json").read_text())
     with pytest.raises(CheckpointError, match=r"tracker checkpoint .*tracker\.pt is not a SAC "
                                               r"policy state_dict"):
-        LearnedController(don_env(n_frames=10), broken)
+        LearnedController(don_env(control=checkpoint_control(), n_frames=10), broken)
 
 
 def test_the_rate_history_holds_the_past_frames_omega_and_trust() -> None:
