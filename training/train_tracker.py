@@ -78,6 +78,8 @@ class Args:
     """discount: tracking is short-sighted, ten frames of horizon are enough to anticipate"""
     batch_size: int = 256
     """SAC minibatch (PPO: minibatch size too)"""
+    gradient_steps: int = 1
+    """SAC: gradient updates per vectorised env step (one step of every env)"""
     learning_starts: int = 2_000
     """SAC: env steps with uniformly random residuals (exploration) before the first update"""
     seed: int = 0
@@ -253,6 +255,7 @@ def main() -> None:
 
         model = SAC("MlpPolicy", venv, learning_rate=args.learning_rate, gamma=args.gamma,
                     batch_size=args.batch_size, learning_starts=args.learning_starts,
+                    gradient_steps=args.gradient_steps,
                     policy_kwargs=policy_kwargs, seed=args.seed, device="cpu", verbose=0)
     else:
         from stable_baselines3 import PPO
