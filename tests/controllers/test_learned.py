@@ -104,3 +104,32 @@ def test_the_rate_history_holds_the_past_frames_omega_and_trust() -> None:
     expected = np.clip(np.array(rates[-2:-5:-1]).ravel(), -5.0, 5.0)
     np.testing.assert_allclose(vector[-6:], expected, rtol=1e-6, atol=1e-6)
     assert len(set(np.round(expected[0::2], 6))) > 1  # the arm moves: omegas differ
+
+
+def test_version_2_features_give_the_servo_error_and_changes_as_rates() -> None:
+    from imimic_gym.controllers.learned import TrackerFeatures
+    from imimic_gym.wrappers import estimate_fields
+
+    env = don_env(n_frames=20, clip_seeds=(100,))
+    v1 = TrackerFeatures(env, history=2, version=1)
+    v2 = TrackerFeatures(env, history=2)
+    angles_at = estimate_fields(1)["angles"]
+    obs, _ = env.reset(seed=0)
+    seen = []
+    for _ in range(10):
+        old, new = v1(obs), v2(obs)
+        seen.append(obs["estimate"][angles_at][0])
+        obs, *_ = env.step(np.zeros(1, dtype=np.float32))
+    change, two_frames = seen[-1] - seen[-2], seen[-1] - seen[-3]
+    assert abs(change) > 1e-3  # DON has moved by frame 9 of clip 100
+    # Version 2: rad/s over 2 pi rad/s (30 fps); version 1: over the joint's half range.
+    low, high = env.unwrapped.arm.joint_ranges[0]
+    assert env.unwrapped.clip.fps == 30 and np.isclose(high - low, np.radians(120))
+    np.testing.assert_allclose(new[6], change * 30 / (2 * np.pi), rtol=1e-5)
+    np.testing.assert_allclose(new[11], two_frames * 30 / 2 / (2 * np.pi), rtol=1e-5)
+    np.testing.assert_allclose(old[6], change / np.radians(60), rtol=1e-5)
+    # The estimate minus qpos, over 0.1 rad, clipped at 5 (0.5 rad).
+    np.testing.assert_allclose(new[5], np.clip(old[5] * np.radians(60) / 0.1, -5, 5),
+                               rtol=1e-5)
+    with pytest.raises(ValueError, match="features version must be one of"):
+        TrackerFeatures(env, version=3)
