@@ -77,7 +77,8 @@ shown; training seconds measured on this machine while other jobs shared its 2 c
 run with DON on validation clip seeds {seeds[0]}-{seeds[-1]} (never trained on, below
 the held-out 1000) next to the holding scripted controllers. Rule, fixed before the
 held-out run: ship the candidate whose worse ratio to velocity-hold over the two
-scenarios is lowest (issue 5 wants both at most 0.8). No candidate reached 0.8 on both;
+scenarios is lowest (issue 5 wants both at most 0.8); the first candidate is the policy
+shipped before this round. No candidate reached 0.8 on both;
 the held-out and fresh seeds were run for the shipped one only.
 
 {table(["control", "features", "rate history", "reward balance", "gradient steps",

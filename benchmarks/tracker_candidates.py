@@ -67,11 +67,11 @@ def main() -> None:
             raise FileNotFoundError(f"candidate {path} has no metadata {meta_path}")
         meta = json.loads(meta_path.read_text())
         for scenario in SCENARIOS:
-            args = meta.get("args", {})
+            trained = meta.get("args", {})
             setup = {"control": meta["control"], "features_version": meta["features_version"],
                      "rate_history": meta.get("rate_history_frames", 0),
-                     "reward_balance": args.get("reward_balance"),
-                     "gradient_steps": args.get("gradient_steps", 1),
+                     "reward_balance": trained.get("reward_balance"),
+                     "gradient_steps": trained.get("gradient_steps", 1),
                      "total_timesteps": meta["total_timesteps"]}
             rows.append({"candidate": path, "command": meta["command"], "setup": setup,
                          "train_seconds": meta["train_seconds"], "scenario": scenario,
