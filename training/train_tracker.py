@@ -71,7 +71,7 @@ class Args:
     """frames of past estimated omega and trust in the policy's features (TrackerFeatures)"""
     hold_until_moving: bool = True
     """the scripted controller under the residual holds the start pose until DON moves"""
-    net_arch: tuple[int, ...] = (64, 64)
+    net_arch: tuple[int, ...] = (128, 128)
     """hidden layers of the actor and the critics"""
     learning_rate: float = 1e-3
     """Adam learning rate"""
