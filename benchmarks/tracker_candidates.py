@@ -74,6 +74,7 @@ def main() -> None:
                      "gradient_steps": trained.get("gradient_steps", 1),
                      "total_timesteps": meta["total_timesteps"]}
             rows.append({"candidate": path, "command": meta["command"], "setup": setup,
+                         "net_arch": meta["net_arch"],
                          "train_seconds": meta["train_seconds"], "scenario": scenario,
                          **score(scenario, meta["control"],
                                  lambda env, p=path: LearnedController(env, p), args.seeds)})
