@@ -1,5 +1,6 @@
 """Train the learned tracker: a stable-baselines3 policy (SAC, or PPO) that corrects the
-position controller, on ImitateVideo-v0 behind the DON wrapper (``keep_frame=False``).
+velocity-hold controller (``--control position``: position-hold), on ImitateVideo-v0
+behind the DON wrapper (``keep_frame=False``).
 
 One env per training scenario, vectorised; clip seeds below 1000 only (``--train-seeds``
 for training, ``--val-seeds`` for the periodic evaluation; the evaluation suite's
@@ -50,25 +51,27 @@ class Args:
     """clip seeds 0 .. train_seeds-1 of every scenario are the training clips"""
     val_seeds: tuple[int, ...] = (900, 901)
     """clip seeds for the periodic evaluation (below 1000, never trained on)"""
-    total_timesteps: int = 120_000
+    total_timesteps: int = 160_000
     """env steps over all envs (one step = one video frame)"""
     eval_every: int = 20_000
     """env steps between periodic evaluations"""
     frames: int | None = None
     """clip length in frames (None: the scenario's, 150); short clips for smoke runs"""
-    control: str = "position"
+    control: str = "velocity"
     """the robot's actuation, and so the scripted controller under the residual:
     position or velocity"""
     residual_scale: float = 1.0
     """the policy's action, times this, is added to the scripted controller's action"""
-    reward_balance: float = 0.5
-    """each scenario's reward is divided by the position controller's mean squared error
+    reward_balance: float = 0.75
+    """each scenario's reward is divided by the scripted controller's mean squared error
     there to this power: 1 weighs scenarios by relative improvement, 0 by raw error"""
     history: int = 6
     """extra frames of estimate history in the policy's features (TrackerFeatures)"""
+    rate_history: int = 12
+    """frames of past estimated omega and trust in the policy's features (TrackerFeatures)"""
     hold_until_moving: bool = True
-    """the position controller under the residual holds the start pose until DON moves"""
-    net_arch: tuple[int, ...] = (64, 64)
+    """the scripted controller under the residual holds the start pose until DON moves"""
+    net_arch: tuple[int, ...] = (128, 128)
     """hidden layers of the actor and the critics"""
     learning_rate: float = 1e-3
     """Adam learning rate"""
@@ -76,6 +79,8 @@ class Args:
     """discount: tracking is short-sighted, ten frames of horizon are enough to anticipate"""
     batch_size: int = 256
     """SAC minibatch (PPO: minibatch size too)"""
+    gradient_steps: int = 2
+    """SAC: gradient updates per vectorised env step (one step of every env)"""
     learning_starts: int = 2_000
     """SAC: env steps with uniformly random residuals (exploration) before the first update"""
     seed: int = 0
@@ -135,20 +140,21 @@ def _field_docs() -> dict[str, str]:
 
 def make_env(scenario: str, seeds: tuple[int, ...], args: Args,
              reward_scale: float = 1.0) -> gym.Env:
-    """ImitateVideo-v0 (position control) -> DON (no frame) -> residual features/actions."""
+    """ImitateVideo-v0 (``args.control``) -> DON (no frame) -> residual features/actions."""
     kwargs = {"n_frames": args.frames} if args.frames else {}
     env = gym.make("ImitateVideo-v0", scenario=scenario, control=args.control,
                    clip_seeds=seeds, **kwargs)
     return ResidualTracking(DONObservation(env, keep_frame=False), args.residual_scale,
-                            reward_scale, args.hold_until_moving, args.history)
+                            reward_scale, args.hold_until_moving, args.history,
+                            args.rate_history)
 
 
 def reward_scales(args: Args, seeds: tuple[int, ...]) -> dict[str, float]:
-    """Per scenario, (the position controller's mean squared error (rad^2) on the first
-    two training clips) ** -reward_balance. With balance 1 every scenario's reward counts
-    relative to what the scripted controller already achieves there; with 0 the occluded
-    forearm's errors (tens of degrees) drown the servo's (a degree or two) in the
-    critic's targets."""
+    """Per scenario, (the mean squared error (rad^2) of the scripted controller alone, a
+    zero residual, on the first two training clips) ** -reward_balance. With balance 1
+    every scenario's reward counts relative to what the scripted controller already
+    achieves there; with 0 the occluded forearm's errors (tens of degrees) drown the
+    servo's (a degree or two) in the critic's targets."""
     scales = {}
     for scenario in args.scenarios:
         env = make_env(scenario, seeds, args)
@@ -250,6 +256,7 @@ def main() -> None:
 
         model = SAC("MlpPolicy", venv, learning_rate=args.learning_rate, gamma=args.gamma,
                     batch_size=args.batch_size, learning_starts=args.learning_starts,
+                    gradient_steps=args.gradient_steps,
                     policy_kwargs=policy_kwargs, seed=args.seed, device="cpu", verbose=0)
     else:
         from stable_baselines3 import PPO
@@ -283,6 +290,7 @@ def main() -> None:
         "reward_scales": scales,
         "hold_until_moving": args.hold_until_moving,
         "history_frames": args.history,
+        "rate_history_frames": args.rate_history,
         "control": args.control,
         "estimator": "don",
         "scenarios": list(args.scenarios),

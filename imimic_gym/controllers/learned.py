@@ -32,25 +32,48 @@ __all__ = ["DEFAULT_CHECKPOINT", "LearnedController", "ResidualTracking", "Track
            "checkpoint_control", "load_policy"]
 
 DEFAULT_CHECKPOINT = Path(__file__).resolve().parents[2] / "checkpoints" / "tracker.pt"
-FEATURES_VERSION = 1
+FEATURES_VERSION = 2
+KNOWN_FEATURES_VERSIONS = (1, 2)
 TIME_HORIZON_S = 2.0  # the time feature saturates here: only the start needs a clock
 OMEGA_SCALE, ALPHA_SCALE = 2 * np.pi, 100.0  # rad/s and rad/s^2 that map to 1
+ERROR_SCALE = 0.1  # rad of estimate-minus-robot that maps to 1 (version 2)
 
 
 class TrackerFeatures:
     """The policy's observation, computed from the wrapped env's observation.
 
-    ((8 + history) n + 3,) float32 in [-5, 5], angles normalised to the joint range (-1
-    and 1 at its ends): qpos, qvel / 2 pi, estimated angles, omega / 2 pi, alpha / 100,
-    the estimate minus qpos, the estimate's change since the last frame, the estimate's
-    total change since the episode began (zero until DON has seen the arm move), trust,
-    predicted, min(t, 2 s) / 2 s, and its change since each of the ``history`` frames
-    before the last (how a jump or a stall looks over a few frames). Stateful: call
-    ``reset()`` with the episode.
+    ((8 + history + rate_history) n + 3 + rate_history,) float32 in [-5, 5], angles
+    normalised to the joint range (-1 and 1 at its ends): qpos, qvel / 2 pi, estimated
+    angles, omega / 2 pi, alpha / 100, the estimate minus qpos, the estimate's change
+    since the last frame, the estimate's total change since the episode began (zero
+    until DON has seen the arm move), trust, predicted, min(t, 2 s) / 2 s, its change
+    since each of the ``history`` frames before the last (how a jump or a stall looks
+    over a few frames), then, for each of the ``rate_history`` frames before this one,
+    the estimated omega / 2 pi and the trust then. Stateful: call ``reset()`` with the
+    episode.
+
+    ``version`` 2 (the default) rescales the small signals that the servo's corrections
+    depend on, so that they reach the network's first layer at the size of the others:
+    the estimate minus qpos is divided by 0.1 rad (clipped at 0.5 rad) and the changes
+    since the last and the ``history`` earlier frames become mean rates, divided by
+    2 pi rad/s like omega (version 1, the first shipped policy's, divides them all by
+    the joint's half range, so a servo's one-degree error is a 0.02 input).
+
+    Why the rate history: DON's omega is a difference of two noisy angles (on the servo
+    clips its RMS error is about 26 deg/s against 7 deg/s for the angles' own central
+    difference), so one frame of it leads the angle badly; averaged over a dozen frames
+    it predicts the next frame's angle about twice as well (a least-squares fit on
+    training clips), and a policy can only learn that average if it sees the frames.
     """
 
-    def __init__(self, env: gym.Env, history: int = 0) -> None:
+    def __init__(self, env: gym.Env, history: int = 0, rate_history: int = 0,
+                 version: int = FEATURES_VERSION) -> None:
         from imimic_gym.wrappers.estimator import estimate_fields
+
+        if version not in KNOWN_FEATURES_VERSIONS:
+            raise ValueError(f"features version must be one of {KNOWN_FEATURES_VERSIONS}, "
+                             f"got {version!r}")
+        self.version = version
 
         inner = env.unwrapped
         low, high = (np.asarray(r) for r in zip(*inner.arm.joint_ranges, strict=True))
@@ -58,8 +81,8 @@ class TrackerFeatures:
         self.n = inner.arm.n_links
         self.dt = 1.0 / float(inner.clip.fps)
         self.fields = estimate_fields(self.n)
-        self.history = history
-        self.size = (8 + history) * self.n + 3
+        self.history, self.rate_history = history, rate_history
+        self.size = (8 + history + rate_history) * self.n + 3 + rate_history
         self.space = spaces.Box(-5.0, 5.0, shape=(self.size,), dtype=np.float32)
         self.reset()
 
@@ -67,6 +90,7 @@ class TrackerFeatures:
         self.first: np.ndarray | None = None
         self.previous: np.ndarray | None = None
         self.past: list[np.ndarray] = []
+        self.past_rates: list[np.ndarray] = []
         self.steps = 0
 
     def __call__(self, obs: dict[str, Any]) -> np.ndarray:
@@ -75,23 +99,38 @@ class TrackerFeatures:
         if self.first is None:
             self.first = self.previous = angles
             self.past = [angles] * self.history
+        rate = np.concatenate([estimate[self.fields["omega"]] / OMEGA_SCALE,
+                               estimate[self.fields["trust"]]])
+        if not self.past_rates:
+            self.past_rates = [rate] * self.rate_history
         qpos = np.asarray(obs["qpos"], dtype=np.float64)
+        if self.version == 1:
+            error_scale = self.half
+            change_scales = [self.half] * (self.history + 1)
+        else:
+            error_scale = np.full(self.n, ERROR_SCALE)
+            change_scales = [OMEGA_SCALE * self.dt * frames
+                             for frames in range(1, self.history + 2)]
         vector = np.concatenate([
             (qpos - self.mid) / self.half,
             np.asarray(obs["qvel"]) / OMEGA_SCALE,
             (angles - self.mid) / self.half,
             estimate[self.fields["omega"]] / OMEGA_SCALE,
             estimate[self.fields["alpha"]] / ALPHA_SCALE,
-            wrap_angle(angles - qpos) / self.half,
-            wrap_angle(angles - self.previous) / self.half,
+            wrap_angle(angles - qpos) / error_scale,
+            wrap_angle(angles - self.previous) / change_scales[0],
             wrap_angle(angles - self.first) / self.half,
             estimate[self.fields["trust"]],
             estimate[self.fields["predicted"]],
             [min(self.steps * self.dt, TIME_HORIZON_S) / TIME_HORIZON_S],
-            *(wrap_angle(angles - past) / self.half for past in self.past),
+            *(wrap_angle(angles - past) / scale
+              for past, scale in zip(self.past, change_scales[1:], strict=True)),
+            *self.past_rates,
         ])
         if self.history:
             self.past = [self.previous, *self.past[:-1]]
+        if self.rate_history:
+            self.past_rates = [rate, *self.past_rates[:-1]]
         self.previous = angles
         self.steps += 1
         return np.clip(vector, -5.0, 5.0).astype(np.float32)
@@ -102,13 +141,15 @@ class _Residual:
     the policy's action."""
 
     def __init__(self, env: gym.Env, scale: float, hold_until_moving: bool,
-                 history: int = 0) -> None:
+                 history: int = 0, rate_history: int = 0,
+                 version: int = FEATURES_VERSION) -> None:
         control = env.unwrapped.control
         if control not in ("position", "velocity"):
             raise ValueError("the learned tracker corrects the position or velocity "
                              f"controller; this env has control={control!r}")
         self.base = SCRIPTED_CONTROLLERS[control](env, hold_until_moving=hold_until_moving)
-        self.features, self.scale = TrackerFeatures(env, history), scale
+        self.features, self.scale = TrackerFeatures(env, history, rate_history,
+                                                      version), scale
 
     def reset(self) -> None:
         self.base.reset()
@@ -130,17 +171,19 @@ class ResidualTracking(gym.Wrapper, gym.utils.RecordConstructorArgs):
     """
 
     def __init__(self, env: gym.Env, residual_scale: float = 0.5, reward_scale: float = 1.0,
-                 hold_until_moving: bool = True, history: int = 0) -> None:
+                 hold_until_moving: bool = True, history: int = 0,
+                 rate_history: int = 0) -> None:
         gym.utils.RecordConstructorArgs.__init__(self, residual_scale=residual_scale,
                                                  reward_scale=reward_scale,
                                                  hold_until_moving=hold_until_moving,
-                                                 history=history)
+                                                 history=history, rate_history=rate_history)
         gym.Wrapper.__init__(self, env)
         if not isinstance(env.observation_space, spaces.Dict) or (
                 "estimate" not in env.observation_space.spaces):
             raise TypeError("ResidualTracking needs an estimator wrapper's obs['estimate'] "
                             f"(e.g. DONObservation), got {env.observation_space}")
-        self.residual = _Residual(env, residual_scale, hold_until_moving, history)
+        self.residual = _Residual(env, residual_scale, hold_until_moving, history,
+                                  rate_history)
         self.reward_scale = reward_scale
         self.observation_space = self.residual.features.space
         self.action_space = spaces.Box(-1.0, 1.0, shape=env.action_space.shape, dtype=np.float32)
@@ -221,17 +264,18 @@ class LearnedController:
             raise FileNotFoundError(f"learned tracker needs {checkpoint} and {meta_path}; "
                                     "train one with python training/train_tracker.py")
         self.metadata = json.loads(meta_path.read_text())
-        if self.metadata.get("features_version") != FEATURES_VERSION:
-            raise ValueError(f"{meta_path}: features_version "
-                             f"{self.metadata.get('features_version')!r}, this code computes "
-                             f"version {FEATURES_VERSION}; retrain the tracker")
+        version = self.metadata.get("features_version")
+        if version not in KNOWN_FEATURES_VERSIONS:
+            raise ValueError(f"{meta_path}: features_version {version!r}, this code computes "
+                             f"versions {KNOWN_FEATURES_VERSIONS}; retrain the tracker")
         control = self.metadata["control"]
         if env.unwrapped.control != control:
             raise ValueError(f"LearnedController drives control={control!r} actuation; this "
                              f"env has control={env.unwrapped.control!r}")
         self.residual = _Residual(env, float(self.metadata["residual_scale"]),
                                   bool(self.metadata["hold_until_moving"]),
-                                  int(self.metadata.get("history_frames", 0)))
+                                  int(self.metadata.get("history_frames", 0)),
+                                  int(self.metadata.get("rate_history_frames", 0)), version)
         if self.metadata["observation_size"] != self.residual.features.size:
             raise ValueError(f"{meta_path}: a policy for {self.metadata['observation_size']} "
                              f"features, this env gives {self.residual.features.size}")

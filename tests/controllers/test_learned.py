@@ -7,8 +7,13 @@ import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import imimic_gym  # noqa: F401
-from imimic_gym.controllers import SCRIPTED_CONTROLLERS, PositionController
-from imimic_gym.controllers.learned import DEFAULT_CHECKPOINT, LearnedController, ResidualTracking
+from imimic_gym.controllers import SCRIPTED_CONTROLLERS
+from imimic_gym.controllers.learned import (
+    DEFAULT_CHECKPOINT,
+    LearnedController,
+    ResidualTracking,
+    checkpoint_control,
+)
 from imimic_gym.rollout import run_episode
 from imimic_gym.wrappers import DONObservation
 
@@ -22,9 +27,11 @@ def test_the_shipped_policy_loads_with_its_metadata_and_tracks_the_servo() -> No
     meta = json.loads(DEFAULT_CHECKPOINT.with_suffix(".json").read_text())
     assert meta["estimator"] == "don" and "exp2-servo" in meta["scenarios"]
     assert max(meta["train_seeds"]) < 1000 and max(meta["val_seeds"]) < 1000
-    env = don_env(clip_seeds=(100,))
+    control = checkpoint_control()
+    assert control == meta["control"]
+    env = don_env(control=control, clip_seeds=(100,))
     learned = run_episode(env, LearnedController(env), seed=0).metrics()
-    plain = run_episode(env, PositionController(env), seed=0).metrics()
+    plain = run_episode(env, SCRIPTED_CONTROLLERS[control](env), seed=0).metrics()
     # Clip 100 starts with DON 34 degrees off for four frames (see test_scripted).
     assert learned["rmse_deg"] < plain["rmse_deg"]
     assert learned["rmse_deg"] < 4.0
@@ -75,4 +82,54 @@ def test_a_corrupt_tracker_checkpoint_is_named(tmp_path) -> None:
     broken.with_suffix(".json").write_text(DEFAULT_CHECKPOINT.with_suffix(".json").read_text())
     with pytest.raises(CheckpointError, match=r"tracker checkpoint .*tracker\.pt is not a SAC "
                                               r"policy state_dict"):
-        LearnedController(don_env(n_frames=10), broken)
+        LearnedController(don_env(control=checkpoint_control(), n_frames=10), broken)
+
+
+def test_the_rate_history_holds_the_past_frames_omega_and_trust() -> None:
+    from imimic_gym.controllers.learned import OMEGA_SCALE, TrackerFeatures
+    from imimic_gym.wrappers import estimate_fields
+
+    env = don_env(n_frames=40, clip_seeds=(100,))
+    features = TrackerFeatures(env, history=2, rate_history=3)
+    assert features.size == (8 + 2 + 3) * 1 + 3 + 3 == features.space.shape[0]
+    fields = estimate_fields(1)
+    obs, _ = env.reset(seed=0)
+    rates = []
+    for _ in range(30):  # DON's omega is 0 until its window of frames has filled
+        vector = features(obs)
+        rates.append([obs["estimate"][fields["omega"]][0] / OMEGA_SCALE,
+                      obs["estimate"][fields["trust"]][0]])
+        obs, *_ = env.step(np.zeros(1, dtype=np.float32))
+    # The last 6 entries: (omega, trust) one, two and three frames before the last call.
+    expected = np.clip(np.array(rates[-2:-5:-1]).ravel(), -5.0, 5.0)
+    np.testing.assert_allclose(vector[-6:], expected, rtol=1e-6, atol=1e-6)
+    assert len(set(np.round(expected[0::2], 6))) > 1  # the arm moves: omegas differ
+
+
+def test_version_2_features_give_the_servo_error_and_changes_as_rates() -> None:
+    from imimic_gym.controllers.learned import TrackerFeatures
+    from imimic_gym.wrappers import estimate_fields
+
+    env = don_env(n_frames=20, clip_seeds=(100,))
+    v1 = TrackerFeatures(env, history=2, version=1)
+    v2 = TrackerFeatures(env, history=2)
+    angles_at = estimate_fields(1)["angles"]
+    obs, _ = env.reset(seed=0)
+    seen = []
+    for _ in range(10):
+        old, new = v1(obs), v2(obs)
+        seen.append(obs["estimate"][angles_at][0])
+        obs, *_ = env.step(np.zeros(1, dtype=np.float32))
+    change, two_frames = seen[-1] - seen[-2], seen[-1] - seen[-3]
+    assert abs(change) > 1e-3  # DON has moved by frame 9 of clip 100
+    # Version 2: rad/s over 2 pi rad/s (30 fps); version 1: over the joint's half range.
+    low, high = env.unwrapped.arm.joint_ranges[0]
+    assert env.unwrapped.clip.fps == 30 and np.isclose(high - low, np.radians(120))
+    np.testing.assert_allclose(new[6], change * 30 / (2 * np.pi), rtol=1e-5)
+    np.testing.assert_allclose(new[11], two_frames * 30 / 2 / (2 * np.pi), rtol=1e-5)
+    np.testing.assert_allclose(old[6], change / np.radians(60), rtol=1e-5)
+    # The estimate minus qpos, over 0.1 rad, clipped at 5 (0.5 rad).
+    np.testing.assert_allclose(new[5], np.clip(old[5] * np.radians(60) / 0.1, -5, 5),
+                               rtol=1e-5)
+    with pytest.raises(ValueError, match="features version must be one of"):
+        TrackerFeatures(env, version=3)

@@ -31,8 +31,9 @@ def test_a_tiny_training_run_writes_a_policy_that_loads_and_tracks(tmp_path) -> 
                                         for c in ("learned", "scripted")}
     assert list((tmp_path / "runs").iterdir())  # TensorBoard events
 
+    assert meta["control"] == "velocity" and meta["rate_history_frames"] == 12
     env = DONObservation(gym.make("ImitateVideo-v0", scenario="exp2-servo", n_frames=20,
-                                  clip_seeds=(900,)), keep_frame=False)
+                                  control="velocity", clip_seeds=(900,)), keep_frame=False)
     metrics = run_episode(env, LearnedController(env, out), seed=0).metrics()
     # 80 steps teach nothing, and the residual is bounded: it stays near the servo.
     assert np.isfinite(metrics["rmse_deg"]) and metrics["rmse_deg"] < 40.0
@@ -47,7 +48,8 @@ def test_the_script_refuses_held_out_seeds() -> None:
 
 def test_ppo_is_selectable_and_its_policy_loads(tmp_path) -> None:
     out = tmp_path / "ppo.pt"
-    subprocess.run([sys.executable, str(SCRIPT), "--algorithm", "ppo", "--scenarios",
+    subprocess.run([sys.executable, str(SCRIPT), "--algorithm", "ppo", "--control", "position",
+                    "--scenarios",
                     "exp2-servo", "--train-seeds", "1", "--val-seeds", "900", "--frames", "20",
                     "--total-timesteps", "100", "--batch-size", "64", "--eval-every", "100",
                     "--out", str(out), "--logdir", str(tmp_path / "runs")],

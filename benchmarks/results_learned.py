@@ -1,0 +1,120 @@
+"""RESULTS.md subsections for the learned tracker (issue 5): where the servo's error comes
+from (benchmarks/results/servo_error_sources.json) and how the shipped policy was chosen
+on validation clips (tracker_candidates.json). Called by results_tracking.render."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+
+def error_sources(load: Callable[[str], object],
+                  table: Callable[[list[str], list[list[str]]], str]) -> str:
+    data = load("servo_error_sources")
+    rows = {(r["estimator"], r["controller"]): r for r in data["rows"]}
+    don = data["don"]
+    seeds = data["seeds"]
+    shown = [[r["estimator"], r["controller"], f"{r['rmse_deg']:.2f}", f"{r['lag_frames']:.1f}",
+              f"{r['jerk_deg_s3']:.0f}"] for r in data["rows"]]
+    floor = rows[("oracle", "velocity-hold")]["rmse_deg"]
+    hold = rows[("don", "velocity-hold")]["rmse_deg"]
+    difference = rows[("don", "difference")]["rmse_deg"]
+    return f"""
+
+### Where the servo's error comes from
+
+Command: `.venv/bin/python benchmarks/servo_error_sources.py --json
+benchmarks/results/servo_error_sources.json` (`{data['scenario']}`, clip seeds
+{seeds[0]}-{seeds[-1]}, means over the seeds; this diagnosis chose nothing).
+
+{table(["estimator", "controller", "RMSE (deg)", "lag (frames)", "jerk (deg/s^3)"], shown)}
+
+- The dynamics floor is small: fed the true angle, omega and alpha, velocity-hold tracks
+  to {floor:.2f} deg. With DON it is {hold:.2f} deg, so nearly all of it is the estimate.
+- DON's angle on the frame it describes is off by {don['angle_rmse']:.2f} deg RMS (from the
+  first frame it moves on), but its omega by {don['omega_rmse']:.1f} deg/s RMS (against the
+  truth's central difference), so its one-frame lead (angle + omega / fps) misses the
+  next frame by {don['lead_omega_rmse']:.2f} deg. DON's omega also stays 0 until its window of
+  frames has filled (on clip 100 until frame 24, while its angle moves from frame 4).
+- `difference`, a diagnostic defined only in the script (velocity-hold with DON's omega
+  replaced by the last change of DON's angle times fps), tracks to {difference:.2f} deg,
+  although that change, used as a one-frame lead on its own, misses the next frame by
+  {don['lead_difference_rmse']:.2f} deg: the velocity servo averages it. So on this
+  scenario issue 5's bar measures DON's omega more than the controllers' dynamics.
+"""
+
+
+def candidates(load: Callable[[str], object],
+               table: Callable[[list[str], list[list[str]]], str], shipped: str) -> str:
+    data = load("tracker_candidates")
+    scenarios = list(dict.fromkeys(r["scenario"] for r in data["rows"]))
+    by_name: dict[str, dict[str, dict]] = {}
+    for row in data["rows"]:
+        by_name.setdefault(row["candidate"], {})[row["scenario"]] = row
+    reference = by_name["velocity-hold"]
+    lines = []
+    for name, cells in by_name.items():
+        first = next(iter(cells.values()))
+        rmse = [f"{cells[s]['rmse_deg']:.2f}" for s in scenarios]
+        if "setup" not in first:
+            lines.append([name, "", "", "", "", "", "", *rmse, "", ""])
+            continue
+        setup = first["setup"]
+        worst = max(cells[s]["rmse_deg"] / reference[s]["rmse_deg"] for s in scenarios)
+        wide = "" if first.get("net_arch", [64, 64]) == [64, 64] else (
+            " (" + " x ".join(map(str, first["net_arch"])) + ")")
+        lines.append([setup["control"] + wide, str(setup["features_version"]),
+                      str(setup["rate_history"]), str(setup["reward_balance"]),
+                      str(setup["gradient_steps"]), str(setup["total_timesteps"]),
+                      f"{first['train_seconds']:.0f}", *rmse, f"{worst:.3f}",
+                      "shipped" if first["command"] == shipped else ""])
+    seeds = data["seeds"]
+    return f"""
+
+### How the shipped policy was chosen
+
+Command: `.venv/bin/python benchmarks/tracker_candidates.py <candidate .pt files> --json
+benchmarks/results/tracker_candidates.json`: each candidate trained by
+`training/train_tracker.py` (SAC, 4 scenarios x clip seeds 0-47, history 6, 64 x 64
+layers unless marked, the options shown; training seconds measured on this machine
+while other jobs shared its 2 cores), run with DON on validation clip seeds
+{seeds[0]}-{seeds[-1]} (never trained on, below the held-out 1000) next to the holding
+scripted controllers. Rule, fixed before the held-out run: ship the candidate whose
+worse ratio to velocity-hold over the two scenarios is lowest (issue 5 wants both at
+most 0.8); the first candidate is the policy shipped before this round. No candidate
+reached 0.8 on both. Held-out and fresh seeds were run only for a policy while it was
+shipped: the 64 x 64 run with features 2 and balance 0.75 was shipped first (commit
+b98b3b9: held-out 1.26 and 25.70 deg, fresh 1.80 and 23.99 deg, `exp2-servo` and
+`exp3-forearm-low`) and replaced by the 128 x 128 run (`--net-arch 128 128`, now the
+default) when that finished with a lower worse ratio on the validation clips.
+
+{table(["control", "features", "rate history", "reward balance", "gradient steps",
+        "steps", "train (s)", *(f"`{s}` RMSE (deg)" for s in scenarios),
+        "worse ratio", ""], lines)}
+"""
+
+
+def fresh_seeds(load: Callable[[str], object],
+                table: Callable[[list[str], list[list[str]]], str]) -> str:
+    data = load("tracking_fresh")
+    seeds = data[0]["seeds"]
+    rows = [[f"`{r['scenario']}`", r["controller"], f"{r['mean']['rmse_deg']:.2f}",
+             f"{r['mean']['max_error_deg']:.1f}", f"{r['mean']['jerk_deg_s3']:.0f}"]
+            for r in data]
+    rmse = {(r["scenario"], r["controller"]): r["mean"]["rmse_deg"] for r in data}
+    cuts = ", ".join(
+        f"`{s}` {100 * (1 - rmse[(s, 'learned')] / rmse[(s, 'velocity-hold')]):.0f}%"
+        for s in dict.fromkeys(r["scenario"] for r in data))
+    return f"""
+
+### Fresh clips, measured once
+
+Command: `.venv/bin/imimic eval --scenario exp2-servo exp3-forearm-low --estimator don
+--controller position-hold velocity-hold learned --episodes 10 --first-seed {seeds[0]}
+--num-envs 2 --json benchmarks/results/tracking_fresh.json`: clip seeds
+{seeds[0]}-{seeds[-1]}, run once after the policy was shipped, to check that the
+held-out figure above is not a property of seeds 1000-1009.
+
+{table(["scenario", "controller", "RMSE (deg)", "max (deg)", "jerk (deg/s^3)"], rows)}
+
+Learned below velocity-hold by: {cuts} (20% needed on both).
+"""
