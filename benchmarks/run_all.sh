@@ -36,6 +36,12 @@ fi
     --controller position velocity torque position-hold velocity-hold torque-hold learned \
     --episodes 10 --num-envs 2 --out benchmarks/results/tracking \
     --json benchmarks/results/tracking.json
+"$BIN/imimic" eval --scenario exp2-servo exp3-forearm-low --estimator don \
+    --controller position-hold velocity-hold learned --episodes 10 --first-seed 1010 \
+    --num-envs 2 --json benchmarks/results/tracking_fresh.json
+"$BIN/python" benchmarks/servo_error_sources.py --json benchmarks/results/servo_error_sources.json
+# benchmarks/tracker_candidates.py compares candidate policies on validation clips; it needs
+# the candidates' .pt files (training/train_tracker.py runs), so it is not rerun here.
 "$BIN/imimic" eval --paper --json benchmarks/results/paper.json --out benchmarks/results/paper
 "$BIN/python" benchmarks/eval_paper_time.py --json benchmarks/results/paper_time.json
 # DON's time by stage (issue 3 speed), now and at the commit before the speed work, and

@@ -55,8 +55,8 @@ PAPER_EXPERIMENTS = (
                     compare=_eta_in(0.5, 0.7)),
     PaperExperiment("exp3 high", "exp3-forearm-high", "don", "tracked, eta 0.3-0.4",
                     compare=_eta_in(0.3, 0.4)),
-    PaperExperiment("exp4", "exp4-hand", "oracle", "forearm, thumb, index finger tracked",
-                    note="DON follows one link so far: the true angles stand in"),
+    PaperExperiment("exp4", "exp4-hand", "don", "forearm, thumb, index finger tracked",
+                    note="DON for several links (LinkedDON); per joint in RESULTS.md"),
 )
 PAPER_CONTROLLERS = ("position", "learned")  # the paper's servo setting, and ours
 

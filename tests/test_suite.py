@@ -59,7 +59,7 @@ def test_paper_mode_prints_every_experiment(tmp_path, capsys) -> None:
     printed = capsys.readouterr().out
     for name in ("exp1", "exp2", "exp3 none", "exp3 low", "exp3 high", "exp4"):
         assert f"| {name} |" in printed
-    assert "DON follows one link so far" in printed
+    assert "| exp4 | `exp4-hand` | don |" in printed and "LinkedDON" in printed
 
 
 def test_registries_refuse_unknown_names() -> None:
