@@ -118,3 +118,36 @@ held-out figure above is not a property of seeds 1000-1009.
 
 Learned below velocity-hold by: {cuts} (20% needed on both).
 """
+
+
+def retrain(load: Callable[[str], object],
+            table: Callable[[list[str], list[list[str]]], str], shipped: str) -> str:
+    """The shipped policy against the same training command re-run on today's DON, on
+    the validation clips (tracker_retrain.json)."""
+    data = load("tracker_retrain")
+    scenarios = ("exp2-servo", "exp3-forearm-low")
+    cells: dict[str, dict[str, dict]] = {}
+    for row in data["rows"]:
+        cells.setdefault(row.get("command", row["candidate"]), {})[row["scenario"]] = row
+    reference = cells["velocity-hold"]
+    lines = []
+    for name, by_scenario in cells.items():
+        rmse = [f"{by_scenario[s]['rmse_deg']:.2f}" for s in scenarios]
+        if name in ("position-hold", "velocity-hold"):
+            lines.append([name, *rmse, ""])
+            continue
+        worst = max(by_scenario[s]["rmse_deg"] / reference[s]["rmse_deg"] for s in scenarios)
+        label = f"`{name}`" + (" (shipped)" if name == shipped else "")
+        lines.append([label, *rmse, f"{worst:.3f}"])
+    seeds = data["seeds"]
+    return f"""
+
+The estimator changed after that choice (DON's link geometry and trust factor, issue 3),
+so the same training command was run again on the merged DON and both policies compared
+on the same validation clips ({seeds[0]}-{seeds[-1]}) by the same rule, command
+`.venv/bin/python benchmarks/tracker_candidates.py <old .pt> <new .pt> --json
+benchmarks/results/tracker_retrain.json`:
+
+{table(["policy (training command)", "`exp2-servo` RMSE (deg)",
+        "`exp3-forearm-low` RMSE (deg)", "worse ratio to velocity-hold"], lines)}
+"""

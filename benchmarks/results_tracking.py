@@ -8,7 +8,7 @@ import json
 from collections.abc import Callable
 from pathlib import Path
 
-from results_learned import candidates, error_sources, fresh_seeds
+from results_learned import candidates, error_sources, fresh_seeds, retrain
 
 from imimic_gym.paper import paper_table
 
@@ -87,7 +87,7 @@ Against issue 5's acceptance:
 - The shipped policy was chosen on validation clips (seeds below 1000) among the
   candidates listed below; its validation RMSE (deg) from its own training run (clip seeds
   {meta['val_seeds']}): {', '.join(f'{k} {v:.2f}' for k, v in val.items())}.
-{fresh_seeds(load, table)}{error_sources(load, table)}{candidates(load, table, meta['command'])}
+{fresh_seeds(load, table)}{error_sources(load, table)}{candidates(load, table, meta['command'])}{retrain(load, table, meta['command'])}
 ### The paper's experiments
 
 Command: `.venv/bin/imimic eval --paper --json benchmarks/results/paper.json --out
