@@ -57,6 +57,7 @@ __all__ = ["DON", "FrameShapeError", "MotionMask", "SlidingExtrema"]
 # link: a sliver of l_1 starts at the pivot, give or take the link's rounded end.
 REACH_BACK_PX = 2.0
 
+
 def _any_channel_above(difference: np.ndarray, tau: int) -> np.ndarray:
     """(H, W) uint8, nonzero where some colour channel of ``difference`` exceeds ``tau``.
     Thresholding each channel, then converting to grey (positive exactly where any channel
@@ -211,7 +212,7 @@ class DON:
         joint_range: tuple[float, float] | None = None,
     ) -> None:
         self.motion = MotionMask(window, gaussian, threshold, working_height)
-        self.fps, self.window, self.threshold = float(fps), window, threshold
+        self.fps, self.window = float(fps), window
         self.reference_direction = reference_direction
         self.known_pivot = None if pivot is None else np.asarray(pivot, dtype=np.float64)
         self.trust_threshold, self.min_area = trust_threshold, min_area
