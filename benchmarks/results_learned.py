@@ -143,10 +143,11 @@ def retrain(load: Callable[[str], object],
     return f"""
 
 The estimator changed after that choice (DON's link geometry and trust factor, issue 3),
-so the same training command was run again on the merged DON and both policies compared
-on the same validation clips ({seeds[0]}-{seeds[-1]}) by the same rule, command
-`.venv/bin/python benchmarks/tracker_candidates.py <old .pt> <new .pt> --json
-benchmarks/results/tracker_retrain.json`:
+so the chosen training command was run again on the merged DON, with two variants (another
+SAC seed; reward balance 0.9, now the default), and every policy compared with the old
+one on the same validation clips ({seeds[0]}-{seeds[-1]}) by the same rule; the best was
+shipped. Command: `.venv/bin/python benchmarks/tracker_candidates.py <the four .pt files>
+--json benchmarks/results/tracker_retrain.json`:
 
 {table(["policy (training command)", "`exp2-servo` RMSE (deg)",
         "`exp3-forearm-low` RMSE (deg)", "worse ratio to velocity-hold"], lines)}

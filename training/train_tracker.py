@@ -62,7 +62,7 @@ class Args:
     position or velocity"""
     residual_scale: float = 1.0
     """the policy's action, times this, is added to the scripted controller's action"""
-    reward_balance: float = 0.75
+    reward_balance: float = 0.9
     """each scenario's reward is divided by the scripted controller's mean squared error
     there to this power: 1 weighs scenarios by relative improvement, 0 by raw error"""
     history: int = 6
