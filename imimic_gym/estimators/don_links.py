@@ -400,8 +400,6 @@ class LinkedDON:
         settled = self.known_pivot is not None or len(self.ends) >= PIVOT_ENDS
         if settled and self.fits % RECHECK_EVERY == 0:
             q = self._recheck(points, pivot, lengths, q)
-        tip = points[int(np.argmax(np.hypot(*(points - pivot).T)))]
-        self._measure_lengths(points, pivot, tip)
         self.sizes.append(float(len(points)))
         self.q = q
         self.tracking = True
