@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 import pytest
 
-from imimic_gym.estimators.geometry import component_lines
+from imimic_gym.estimators.geometry import PivotEstimator, component_lines
 
 
 def test_component_lines_give_known_centres_areas_and_axes_in_label_order() -> None:
@@ -71,3 +71,35 @@ def test_a_lone_region_counts_from_min_area_on() -> None:
     (line,) = component_lines(mask, min_area=12)
     assert line[[0, 1, 6]].tolist() == [13.5, 7.5, 12.0]
     assert line[4] == pytest.approx(math.sqrt(35 / 12))  # std of 6 uniform pixels
+
+
+def _region(centre: np.ndarray, direction_deg: float, length: float) -> np.ndarray:
+    """A `component_lines` row: a region centred at ``centre`` along ``direction_deg``
+    (CCW, image up) with ``length`` std along its axis."""
+    theta = math.radians(direction_deg)
+    return np.array([centre[0], centre[1], math.cos(theta), -math.sin(theta), length, 4.0,
+                     30.0])
+
+
+@pytest.mark.parametrize("reach_back", [2.0, None])
+def test_pivot_solve_ignores_crossings_that_regions_straddle(reach_back) -> None:
+    """Slivers of a link start at its pivot. Twenty regions cross in their middles (an
+    X), eighteen slivers radiate from the pivot. With ``reach_back`` the X's crossings do
+    not count and the pivot is found; without, they pull the solve off it."""
+    pivot, straddled = np.array([60.0, 80.0]), np.array([100.0, 40.0])
+    crossing = [_region(straddled, (60.0 if k % 2 else 120.0) + k / 10, 6.0)
+                for k in range(20)]
+    slivers = []
+    for k in range(18):
+        direction = 20.0 + 8.0 * k
+        theta = math.radians(direction)
+        centre = pivot + 20.0 * np.array([math.cos(theta), -math.sin(theta)])
+        slivers.append(_region(centre, direction, 4.0))  # from 13 px out to 27 px
+    solver = PivotEstimator(reach_back=reach_back)
+    found = None
+    interleaved = [line for pair in zip(crossing[:18], slivers, strict=True) for line in pair]
+    for line in interleaved + crossing[18:]:
+        solver.add_line(line)
+        found = solver.pivot()  # agreed by two solves ten lines apart
+    found_it = found is not None and np.hypot(*(found - pivot)) < 2.0
+    assert found_it == (reach_back is not None)
