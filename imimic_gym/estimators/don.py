@@ -29,11 +29,15 @@ Decisions where the paper is vague or inconsistent (each is also noted where it 
   for n links; we fit one per moving region of l_1 (its principal axis) for one link
   too. The link turns about a pivot that never moves, so its regions lie along rays
   through it: the pivot is the mode of the pairwise intersections of recent lines (the
-  paper never says how it finds the pivot). The radius r (skeleton length) is the reach
-  of the regions along the link.
+  paper never says how it finds the pivot), counting only crossings near which both
+  regions start (`geometry.PivotEstimator`), and leaving out edges that slide sideways
+  from one frame to the next (an occluder's sides: a turning link's slivers turn). The
+  radius r (skeleton length) is the reach of the regions along the link.
 - Location. s = the link's direction: the weighted mean axis of the regions that lie on
   a ray from the pivot. delta1_1 spans frames t-1 and t, so s lags by half a frame: the
-  angle reported for frame t is s + v/2.
+  angle reported for frame t is s + v/2. A jump of more than `MAX_TURN` in one frame is
+  the link found again after a lost or wrong reading, not motion: the path estimator
+  starts afresh there rather than report thousands of degrees a second.
 - Trust and prediction. eta per Eq. (TF), with M_p the link's visible length rather than
   the raw moving area (`DON.trust_factor` says why); a link that was turning and vanishes
   counts as size 0. Below ``trust_threshold`` the current frame is not believed and the
@@ -64,6 +68,9 @@ __all__ = ["DON", "FrameShapeError", "MotionMask", "SlidingExtrema"]
 # How far (working px) a moving region may reach back past the pivot and still be the
 # link: a sliver of l_1 starts at the pivot, give or take the link's rounded end.
 REACH_BACK_PX = 2.0
+# The fastest turn (rad/frame) read as motion: exp1-noisy-fast's arm peaks at 31 degrees a
+# frame at 30 fps.
+MAX_TURN = math.radians(45.0)
 # A link last seen turning this fast (deg/frame) that leaves no moving pixel at all has
 # vanished (behind something), not stopped: a smooth stop slows through the speeds DON
 # still sees.
@@ -366,7 +373,11 @@ class DON:
             self.angle = self._predict()
             self.predicting_for += 1
         else:
-            # DON layer 4a: path estimator on the measured location.
+            # DON layer 4a: path estimator on the measured location. A jump no arm makes
+            # in a frame is the link found again after a wrong or lost reading: its
+            # difference is no velocity, so the path starts afresh from here.
+            if self.angle is not None and abs(wrap_angle(location - self.angle)) > MAX_TURN:
+                self.path.reset()
             self.path.update(np.array([location]))
             self.angle = location
             self.predicting_for = 0

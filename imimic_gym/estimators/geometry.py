@@ -19,6 +19,9 @@ from imimic_gym.metrics import wrap_angle
 
 __all__ = ["LinkTracker", "PivotEstimator", "component_lines"]
 
+# An edge that slid sideways by at least SHIFT_PX while turning less than TURN_DEG since the
+# last frame is translating (an occluder's side), not turning about a pivot.
+SHIFT_PX, TURN_DEG = 1.5, 2.0
 RANGE_MARGIN_DEG = 20.0  # how far past its joint range a region may still be the link
 
 
@@ -103,11 +106,17 @@ class PivotEstimator:
     always do about the true pivot, while an occluder's edge crossing the link does so
     by chance.
 
-    ``reach_back`` (px): a crossing only counts if neither region reaches back past it by
-    more than this. A turning link's slivers start at its pivot and lie beyond it; two of
-    them crossing in the middle of one (a narrow fan, whose lines meet at shallow angles
-    along the link) put the pivot out on the forearm, where it stayed once agreed. None:
-    no such test (a whole-object mask covers the pivot itself).
+    ``reach_back`` (px): a crossing only counts if both regions start near it, beyond it:
+    neither reaches back past it by more than ``reach_back``, and neither's near end is
+    farther from it than its own length (plus 3 px). A turning link's slivers start at
+    its pivot. Two crossing in the middle of one (a narrow fan, whose lines meet at
+    shallow angles along the link) put the pivot out on the forearm; a forearm's lines
+    crossing an occluder's edge far past both ends put it on the person's hip; either
+    stayed once agreed. None: no such test (a whole-object mask covers the pivot itself).
+
+    The mean shift toward the mode starts from the densest 9x9 px block of crossings,
+    counted, not weighted by the regions' lengths: an occluder's long edges outweighed
+    the link's short slivers, and the median of all crossings lay between the clusters.
     """
 
     def __init__(self, memory: int = 40, refresh: int = 10, agree_px: float = 4.0,
@@ -175,11 +184,12 @@ class PivotEstimator:
             for k in (i, j):
                 offset = centre[k] - points
                 along = np.abs(offset[:, 0] * dx[k] + offset[:, 1] * dy[k])
-                ok &= along - 1.7 * weight[k] > -self.reach_back
+                gap = along - 1.7 * weight[k]  # from the crossing to the region's near end
+                ok &= (gap > -self.reach_back) & (gap < 3.4 * weight[k] + 3.0)
             if np.count_nonzero(ok) < 20:
                 return None
             points, weights = points[ok], weights[ok]
-        point = np.median(points, axis=0)
+        point = _densest(points)
         for radius in (16.0, 8.0, 4.0, 4.0):  # shrinking mean shift toward the mode
             near = np.hypot(*(points - point).T) < radius
             if not near.any():
@@ -188,6 +198,36 @@ class PivotEstimator:
             near_weights = weights[near]
             point = (points[near] * near_weights[:, None]).sum(axis=0) / near_weights.sum()
         return point
+
+
+def _densest(points: np.ndarray, cell: float = 3.0) -> np.ndarray:
+    """The centre of the 3x3-cell block (cells of ``cell`` px) holding the most of
+    ``points`` (n, 2): where a mean shift should start. Not the median, which a crowd of
+    stray crossings drags away from a tight cluster of true ones; and by count, not by
+    length: an occluder's long edges would outweigh the link's short slivers."""
+    cells = np.floor(points / cell).astype(np.int64)
+    offsets = np.array([(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1)])
+    voted = (cells[:, None, :] + offsets[None, :, :]).reshape(-1, 2)
+    keys, inverse = np.unique(voted, axis=0, return_inverse=True)
+    totals = np.bincount(inverse.ravel())
+    return (keys[int(np.argmax(totals))] + 0.5) * cell
+
+
+def _translated(line: np.ndarray, previous: np.ndarray) -> bool:
+    """Whether ``line`` is an edge that slid sideways since the last frame: a line of
+    ``previous`` nearly parallel to it (within TURN_DEG), of a similar length, overlapping it
+    along the axis, but SHIFT_PX or more off it across. A link turning about its pivot shifts
+    its slivers' centres only by turning them."""
+    if len(previous) == 0:
+        return False
+    cx, cy, dx, dy, length = line[:5]
+    ox, oy = previous[:, 0] - cx, previous[:, 1] - cy
+    parallel = np.abs(previous[:, 2] * dy - previous[:, 3] * dx) < math.sin(math.radians(TURN_DEG))
+    similar = (previous[:, 4] > 0.7 * length) & (previous[:, 4] < 1.4 * length)
+    across = np.abs(ox * dy - oy * dx)
+    along = np.abs(ox * dx + oy * dy)
+    return bool(np.any(parallel & similar & (across > SHIFT_PX) & (across < 3 * length)
+                       & (along < 1.7 * length)))
 
 
 class LinkTracker:
@@ -219,6 +259,7 @@ class LinkTracker:
             self.directions = (reference_direction + (lo + hi) / 2,
                                (hi - lo) / 2 + math.radians(RANGE_MARGIN_DEG))
         self.pivots = PivotEstimator(directions=self.directions, reach_back=reach_back)
+        self._previous_lines = np.zeros((0, 7))
         self.radius: float | None = None
         self._radius_pivot: np.ndarray | None = None
         self.lost_for = 0
@@ -236,8 +277,10 @@ class LinkTracker:
         lines = component_lines(mask, self.min_area)
         if self.known_pivot is None and self.pivots.pivot() is None:
             for line in lines:
-                if line[5] > 1.4 and line[4] > 3.0:
+                if line[5] > 1.4 and line[4] > 3.0 and not _translated(
+                        line, self._previous_lines):
                     self.pivots.add_line(line)
+        self._previous_lines = lines
         pivot = self.pivot()
         if pivot is not None and (self._radius_pivot is None
                                   or np.hypot(*(pivot - self._radius_pivot)) > 2.0):

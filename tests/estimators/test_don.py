@@ -9,6 +9,7 @@ import pytest
 
 from imimic_gym.estimators.don import DON, FrameShapeError, SlidingExtrema
 from imimic_gym.estimators.geometry import component_lines
+from imimic_gym.metrics import wrap_angle
 
 H, W, FPS = 240, 320, 30.0
 PIVOT = np.array([160.0, 150.0])
@@ -253,3 +254,18 @@ def test_a_board_crossing_the_first_movement_does_not_fix_a_wrong_pivot() -> Non
               joint_range=spec.joint_ranges[0])
     angles = np.array([e.angles for e in don.run(clip.frames)])
     assert angle_rmse_deg(angles[15:], clip.truth.angles[15:]) < 30.0
+
+
+def test_a_link_found_again_far_away_is_no_velocity() -> None:
+    """The bar turns 3 degrees a frame, vanishes for 5 frames and reappears 90 degrees
+    on: once the 45-degree gate has lapsed (5 frames without the link), DON reads the new
+    angle, and no arm's speed (no 2700 deg/s) from the jump."""
+    angles = sweep(3.0, 40, start_deg=40)
+    frames = [bar_frame(a) for a in angles]
+    frames += [np.zeros((H, W, 3), dtype=np.uint8)] * 5
+    later = [angles[-1] + math.radians(90 + 3 * k) for k in range(1, 10)]
+    frames += [bar_frame(a) for a in later]
+    estimates = DON(fps=FPS, pivot=tuple(PIVOT)).run(frames)
+    back = estimates[-3]
+    assert abs(math.degrees(wrap_angle(back.angles[0] - later[-3]))) < 3.0
+    assert abs(math.degrees(back.omega[0])) < 200.0

@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 import pytest
 
-from imimic_gym.estimators.geometry import PivotEstimator, component_lines
+from imimic_gym.estimators.geometry import LinkTracker, PivotEstimator, component_lines
 
 
 def test_component_lines_give_known_centres_areas_and_axes_in_label_order() -> None:
@@ -83,23 +83,73 @@ def _region(centre: np.ndarray, direction_deg: float, length: float) -> np.ndarr
 
 @pytest.mark.parametrize("reach_back", [2.0, None])
 def test_pivot_solve_ignores_crossings_that_regions_straddle(reach_back) -> None:
-    """Slivers of a link start at its pivot. Twenty regions cross in their middles (an
-    X), eighteen slivers radiate from the pivot. With ``reach_back`` the X's crossings do
+    """Slivers of a link start at its pivot. Twenty-four regions cross in their middles
+    (an X), twelve slivers radiate from the pivot. With ``reach_back`` the X's crossings do
     not count and the pivot is found; without, they pull the solve off it."""
     pivot, straddled = np.array([60.0, 80.0]), np.array([100.0, 40.0])
     crossing = [_region(straddled, (60.0 if k % 2 else 120.0) + k / 10, 6.0)
-                for k in range(20)]
+                for k in range(24)]
     slivers = []
-    for k in range(18):
-        direction = 20.0 + 8.0 * k
+    for k in range(12):
+        direction = 20.0 + 12.0 * k
         theta = math.radians(direction)
         centre = pivot + 20.0 * np.array([math.cos(theta), -math.sin(theta)])
         slivers.append(_region(centre, direction, 4.0))  # from 13 px out to 27 px
     solver = PivotEstimator(reach_back=reach_back)
     found = None
-    interleaved = [line for pair in zip(crossing[:18], slivers, strict=True) for line in pair]
-    for line in interleaved + crossing[18:]:
+    interleaved = [line for pair in zip(crossing[:12], slivers, strict=True) for line in pair]
+    for line in interleaved + crossing[12:]:
         solver.add_line(line)
         found = solver.pivot()  # agreed by two solves ten lines apart
     found_it = found is not None and np.hypot(*(found - pivot)) < 2.0
     assert found_it == (reach_back is not None)
+
+
+def test_pivot_solve_ignores_crossings_far_beyond_the_regions() -> None:
+    """Twenty-four short regions whose axes all meet 40 px beyond their near ends (the
+    forearm's slivers and an occluder's edge, extended far past both) do not make a
+    pivot; twelve slivers starting at the pivot do."""
+    pivot, far = np.array([60.0, 80.0]), np.array([140.0, 100.0])
+    distant = []
+    for k in range(24):
+        direction = 60.0 + (k % 4) * 15.0 + k / 10
+        theta = math.radians(direction)
+        centre = far + 45.0 * np.array([math.cos(theta), -math.sin(theta)])
+        distant.append(_region(centre, direction, 1.5))  # from 40 px out to 50 px
+    slivers = []
+    for k in range(12):
+        direction = 20.0 + 12.0 * k
+        theta = math.radians(direction)
+        centre = pivot + 20.0 * np.array([math.cos(theta), -math.sin(theta)])
+        slivers.append(_region(centre, direction, 4.0))
+    solver = PivotEstimator(reach_back=2.0)
+    found = None
+    interleaved = [line for pair in zip(distant[:12], slivers, strict=True) for line in pair]
+    for line in interleaved + distant[12:]:
+        solver.add_line(line)
+        found = solver.pivot()
+    assert found is not None and np.hypot(*(found - pivot)) < 2.0
+
+
+def test_an_edge_sliding_sideways_does_not_feed_the_pivot() -> None:
+    """A vertical strip moving 3 px right per frame (an occluder's side) gives a line per
+    frame; only the first, with no frame before it to slide from, feeds the pivot."""
+    tracker = LinkTracker(reach_back=2.0)
+    for frame in range(6):
+        mask = np.zeros((120, 160), dtype=np.uint8)
+        x = 40 + 3 * frame
+        mask[20:80, x:x + 3] = 255
+        tracker.lines(mask)
+    assert len(tracker.pivots.lines) == 1
+
+
+def test_slivers_of_a_turning_bar_feed_the_pivot() -> None:
+    """Slivers turning 4 degrees a frame about one point are not a sliding edge."""
+    tracker = LinkTracker(reach_back=2.0)
+    for frame in range(6):
+        mask = np.zeros((120, 160), dtype=np.uint8)
+        theta = math.radians(40 + 4 * frame)
+        tip = (80 + 40 * math.cos(theta), 90 - 40 * math.sin(theta))
+        cv2.line(mask, (80, 90), (round(tip[0]), round(tip[1])), 255, thickness=2)
+        tracker.lines(mask)
+    assert len(tracker.pivots.lines) == 6
