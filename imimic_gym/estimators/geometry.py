@@ -213,21 +213,25 @@ def _densest(points: np.ndarray, cell: float = 3.0) -> np.ndarray:
     return (keys[int(np.argmax(totals))] + 0.5) * cell
 
 
-def _translated(line: np.ndarray, previous: np.ndarray) -> bool:
-    """Whether ``line`` is an edge that slid sideways since the last frame: a line of
-    ``previous`` nearly parallel to it (within TURN_DEG), of a similar length, overlapping it
-    along the axis, but SHIFT_PX or more off it across. A link turning about its pivot shifts
-    its slivers' centres only by turning them."""
+def _slide_from(line: np.ndarray, previous: np.ndarray) -> int | None:
+    """The line of ``previous`` that ``line`` slid sideways from since the last frame, if
+    any: the nearest one (across) nearly parallel to it (within TURN_DEG), of a similar
+    length and overlapping it along the axis, if that lies SHIFT_PX or more off it across.
+    The nearest, not any: a turning link's leading sliver has last frame's trailing one
+    parallel beside it, one link width away, and last frame's leading one just behind it."""
     if len(previous) == 0:
-        return False
+        return None
     cx, cy, dx, dy, length = line[:5]
     ox, oy = previous[:, 0] - cx, previous[:, 1] - cy
     parallel = np.abs(previous[:, 2] * dy - previous[:, 3] * dx) < math.sin(math.radians(TURN_DEG))
     similar = (previous[:, 4] > 0.7 * length) & (previous[:, 4] < 1.4 * length)
     across = np.abs(ox * dy - oy * dx)
     along = np.abs(ox * dx + oy * dy)
-    return bool(np.any(parallel & similar & (across > SHIFT_PX) & (across < 3 * length)
-                       & (along < 1.7 * length)))
+    match = np.flatnonzero(parallel & similar & (across < 3 * length) & (along < 1.7 * length))
+    if len(match) == 0:
+        return None
+    nearest = int(match[np.argmin(across[match])])
+    return nearest if across[nearest] > SHIFT_PX else None
 
 
 class LinkTracker:
@@ -260,6 +264,8 @@ class LinkTracker:
                                (hi - lo) / 2 + math.radians(RANGE_MARGIN_DEG))
         self.pivots = PivotEstimator(directions=self.directions, reach_back=reach_back)
         self._previous_lines = np.zeros((0, 7))
+        self.sliding = np.zeros(0, dtype=bool)  # per line of the last `lines` call
+        self._slid = np.zeros(0, dtype=bool)  # slid since the frame before, per line
         self.radius: float | None = None
         self._radius_pivot: np.ndarray | None = None
         self.lost_for = 0
@@ -275,10 +281,14 @@ class LinkTracker:
         the link do (in `measure`), so a distractor or an occluder's edges cannot drag a
         pivot that the link's own lines have fixed."""
         lines = component_lines(mask, self.min_area)
+        # An edge slid sideways (an occluder's side) when it did so in two frames running:
+        # once can be the chance shape of a turning link's merged slivers.
+        slid = [_slide_from(line, self._previous_lines) for line in lines]
+        self.sliding = np.array([k is not None and bool(self._slid[k]) for k in slid], bool)
+        self._slid = np.array([k is not None for k in slid], bool)
         if self.known_pivot is None and self.pivots.pivot() is None:
-            for line in lines:
-                if line[5] > 1.4 and line[4] > 3.0 and not _translated(
-                        line, self._previous_lines):
+            for line, sliding in zip(lines, self.sliding, strict=True):
+                if line[5] > 1.4 and line[4] > 3.0 and not sliding:
                     self.pivots.add_line(line)
         self._previous_lines = lines
         pivot = self.pivot()
@@ -286,6 +296,11 @@ class LinkTracker:
                                   or np.hypot(*(pivot - self._radius_pivot)) > 2.0):
             self.radius, self._radius_pivot = None, pivot  # r was measured from elsewhere
         return lines
+
+    def _sliding(self, lines: np.ndarray) -> np.ndarray:
+        """Which of ``lines`` slid sideways in the last two frames (`_slide_from`): the
+        flags `lines` computed, if these are its lines; else none."""
+        return self.sliding if lines is self._previous_lines else np.zeros(len(lines), bool)
 
     def measure(
         self, lines: np.ndarray, pivot: np.ndarray, last: float | None
@@ -319,7 +334,10 @@ class LinkTracker:
             middle, half_width = float(self.directions[0]), float(self.directions[1])
         gated = self.lost_for < 5  # the radius and direction gates
         kept = []  # (index, outward direction, weight, distance, length)
+        sliding = self._sliding(lines)
         for index, (cx, cy, dx, dy, length, elongation, area) in enumerate(lines.tolist()):
+            if sliding[index]:  # an occluder's side, not a turning link
+                continue
             ox, oy = cx - px, cy - py
             distance = float(np.hypot(ox, oy))
             # Along a ray from the pivot within ~14 degrees, and clearly elongated: a round
@@ -364,7 +382,7 @@ class LinkTracker:
         by the joint range; None without a range or such a region."""
         if self.joint_range is None or len(lines) == 0:
             return None
-        candidates = lines[(lines[:, 5] > 2.0) & (lines[:, 4] > 2.5)]
+        candidates = lines[(lines[:, 5] > 2.0) & (lines[:, 4] > 2.5) & ~self._sliding(lines)]
         if len(candidates) == 0:
             return None
         line = candidates[np.argmax(candidates[:, 4] * candidates[:, 6])]

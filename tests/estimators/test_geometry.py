@@ -133,23 +133,37 @@ def test_pivot_solve_ignores_crossings_far_beyond_the_regions() -> None:
 
 def test_an_edge_sliding_sideways_does_not_feed_the_pivot() -> None:
     """A vertical strip moving 3 px right per frame (an occluder's side) gives a line per
-    frame; only the first, with no frame before it to slide from, feeds the pivot."""
+    frame; only the first two feed the pivot: a slide counts once seen in two frames
+    running."""
     tracker = LinkTracker(reach_back=2.0)
     for frame in range(6):
         mask = np.zeros((120, 160), dtype=np.uint8)
         x = 40 + 3 * frame
         mask[20:80, x:x + 3] = 255
         tracker.lines(mask)
-    assert len(tracker.pivots.lines) == 1
+    assert len(tracker.pivots.lines) == 2
 
 
-def test_slivers_of_a_turning_bar_feed_the_pivot() -> None:
-    """Slivers turning 4 degrees a frame about one point are not a sliding edge."""
-    tracker = LinkTracker(reach_back=2.0)
-    for frame in range(6):
-        mask = np.zeros((120, 160), dtype=np.uint8)
-        theta = math.radians(40 + 4 * frame)
+@pytest.mark.parametrize("degrees_per_frame", [1.5, 4.0])
+def test_slivers_of_a_turning_bar_do_not_slide(degrees_per_frame: float) -> None:
+    """A thick bar turning about one point: the difference of consecutive frames is a
+    leading and a trailing sliver, each with last frame's trailing one parallel a bar's
+    width away when the turn is slow. None of them counts as a sliding edge, and their
+    lines feed the pivot."""
+    def bar(theta_deg: float) -> np.ndarray:
+        image = np.zeros((120, 160), dtype=np.uint8)
+        theta = math.radians(theta_deg)
         tip = (80 + 40 * math.cos(theta), 90 - 40 * math.sin(theta))
-        cv2.line(mask, (80, 90), (round(tip[0]), round(tip[1])), 255, thickness=2)
-        tracker.lines(mask)
-    assert len(tracker.pivots.lines) == 6
+        cv2.line(image, (80, 90), (round(tip[0]), round(tip[1])), 255, thickness=7)
+        return image
+
+    tracker = LinkTracker(reach_back=2.0)
+    flagged = fed = 0
+    for frame in range(1, 8):
+        angle = 40 + degrees_per_frame * frame
+        mask = cv2.absdiff(bar(angle), bar(angle - degrees_per_frame))
+        lines = tracker.lines(mask)
+        flagged += int(tracker.sliding.sum())
+        fed += int(((lines[:, 5] > 1.4) & (lines[:, 4] > 3.0)).sum())
+    assert flagged == 0
+    assert len(tracker.pivots.lines) == fed > 0
