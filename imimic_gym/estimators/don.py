@@ -25,6 +25,15 @@ Decisions where the paper is vague or inconsistent (each is also noted where it 
 - Object identification per frame. l_1 = (union delta2) & delta1_1 is computed for the
   new frame; the locations and sizes of l_2..l_N are the ones computed when those frames
   were new. Re-intersecting older delta1 with today's union only drops noise pixels.
+- A slow link. Turning under a degree a frame, a forearm changes no pixel by the
+  threshold between two frames, so l_1 is empty along it and the paper's network holds
+  a stale angle. Where l_1 shows no link (and the link is not hidden), DON reads it
+  from delta2_{N/2} & delta2_N instead: the pixels the current frame differs in from
+  both half a window and a whole window back are where the link is now and was at
+  neither time (`DON._slow_reading`).
+- Before the pivot is agreed: the link's direction about the last solve's pivot, while
+  it waits for the next solve to agree; before any solve, the longest moving region's
+  axis.
 - Object regression, pivot and radius (`geometry.py`). The paper adds a line per link
   for n links; we fit one per moving region of l_1 (its principal axis) for one link
   too. The link turns about a pivot that never moves, so its regions lie along rays
@@ -58,7 +67,7 @@ import mujoco
 import numpy as np
 
 from imimic_gym.estimators.frames import FrameShapeError, WorkingFrames
-from imimic_gym.estimators.geometry import LinkTracker
+from imimic_gym.estimators.geometry import LinkTracker, component_lines
 from imimic_gym.estimators.motion import PathEstimator, TorqueModel
 from imimic_gym.estimators.types import Estimate
 from imimic_gym.metrics import wrap_angle
@@ -154,6 +163,7 @@ class MotionMask:
         self.frames.reset()
         self.previous: np.ndarray | None = None
         self.extrema = SlidingExtrema(self.window)
+        self.history: deque[np.ndarray] = deque(maxlen=self.window + 1)
 
     @property
     def scale(self) -> float:
@@ -166,7 +176,15 @@ class MotionMask:
         mask = None if self.previous is None else self._moving_pixels(image)
         self.previous = image
         self.extrema.push(image)
+        self.history.append(image)
         return mask
+
+    def difference_to(self, frames_back: int) -> np.ndarray:
+        """delta2 of the newest frame to the one ``frames_back`` before it, binarised as
+        layer 2 does: (h, w) uint8, nonzero where some channel differs by more than the
+        threshold."""
+        return _any_channel_above(
+            cv2.absdiff(self.history[-1], self.history[-1 - frames_back]), self.threshold)
 
     def _moving_pixels(self, image: np.ndarray) -> np.ndarray:
         tau = self.threshold
@@ -256,6 +274,10 @@ class DON:
                  else self.reference_direction + sum(self.joint_range) / 2)
         self.estimate = self._estimate(start, 0.0, 0.0, trust=1.0, predicted=False)
         self.last_mask: np.ndarray | None = None
+        self.guess: float | None = None  # the last direction guessed before the pivot
+        # Per frame of MotionMask.history: the angle reported for it, and whether l_1
+        # measured it (None before the pivot).
+        self.reported: deque[tuple[float, bool] | None] = deque(maxlen=self.window)
 
     @property
     def scale(self) -> float:
@@ -329,42 +351,79 @@ class DON:
 
     def update(self, frame: np.ndarray) -> Estimate:
         """Take the next (H, W, 3) uint8 RGB frame; return the estimate for it."""
+        estimate, measured = self._update(frame)
+        self.reported.append(None if self.link is None or self.link.pivot() is None
+                             else (float(estimate.angles[0]) + self.reference_direction,
+                                   measured))
+        return estimate
+
+    def _slow_reading(self) -> tuple[float, float] | None:
+        """Where the link is when l_1 shows nothing along it: a link turning under a
+        degree a frame moves too little between two frames, but not over half a window.
+        The pixels the current frame differs from both N/2 and N frames back in are where
+        the link is now and was in neither (where it was then differs from one of them
+        only, once it has moved on by its width). None if those show no link either."""
+        if self.hidden or self.angle is None or len(self.motion.history) <= self.window:
+            return None
+        half = self.window // 2
+        mask = cv2.bitwise_and(self.motion.difference_to(half),
+                               self.motion.difference_to(self.window))
+        lines = component_lines(mask, self.min_area)
+        return self.link.measure(lines, self.link.pivot(), self.angle)
+
+    def _before_pivot(self, lines: np.ndarray) -> Estimate:
+        """The estimate until a pivot is agreed: the link's direction about the last
+        solve's pivot where there is one (`PivotEstimator.provisional`), else the longest
+        moving region's axis (`LinkTracker.before_pivot`); else the last estimate."""
+        provisional = self.link.pivots.provisional()
+        reading = (None if provisional is None
+                   else self.link.measure(lines, provisional, self.guess))
+        guess = reading[0] if reading is not None else self.link.before_pivot(lines)
+        if guess is None:
+            return self.estimate
+        self.guess = guess
+        return self._estimate(guess, 0.0, 0.0, trust=1.0, predicted=False)
+
+    def _update(self, frame: np.ndarray) -> tuple[Estimate, bool]:
+        """The estimate for ``frame``, and whether l_1 measured the link in it."""
         mask = self.motion(frame)
         if mask is None:
             pivot = None if self.known_pivot is None else self.known_pivot / self.scale
             self.link = LinkTracker(self.reference_direction, pivot, self.joint_range,
                                     self.min_area, reach_back=REACH_BACK_PX)
-            return self.estimate
+            return self.estimate, False
         self.last_mask = mask
         area = cv2.countNonZero(mask)
 
+        measured = None
         if area < self.min_area:
             # Nothing moved: nothing to distrust, unless the link vanished while turning
             # and has not been seen since (it is still hidden, resting or not). A link
             # turning faster than VANISH_DEG a frame in the last three cannot stop dead:
             # it vanished (the frame it vanished in reads a bogus v of its own).
             self.hidden = self.hidden or self._was_moving(VANISH_DEG, frames=3)
-            self.sizes.append(0.0 if self.hidden else None)
-            return self._hold(trust=self.trust_factor() if self.hidden else 1.0)
-
-        lines = self.link.lines(mask)
-        pivot = self.link.pivot()
-        if pivot is None:
-            guess = self.link.before_pivot(lines)
-            if guess is not None:
-                self.estimate = self._estimate(guess, 0.0, 0.0, trust=1.0, predicted=False)
-            return self.estimate
-        # DON layer 3 + object regression: where the link is, from l_1's regions.
-        measured = self.link.measure(lines, pivot, self.angle)
-        if measured is None:
-            # Motion, but none along the link. If the link was turning, it is hidden (size
-            # 0, eta says so, until the link is seen again); if it was at rest, this is a
-            # distractor (no size). Either way there is nothing to roll the prediction on
-            # from: hold.
-            self.hidden = self.hidden or self._was_moving()
-            self.sizes.append(0.0 if self.hidden else None)
-            return self._hold(trust=self.trust_factor())
-        location, visible_length = measured
+            slow = None if self.link.pivot() is None else self._slow_reading()
+            if slow is None:
+                self.sizes.append(0.0 if self.hidden else None)
+                return self._hold(trust=self.trust_factor() if self.hidden else 1.0), False
+        else:
+            lines = self.link.lines(mask)
+            pivot = self.link.pivot()
+            if pivot is None:
+                self.estimate = self._before_pivot(lines)
+                return self.estimate, False
+            # DON layer 3 + object regression: where the link is, from l_1's regions.
+            measured = self.link.measure(lines, pivot, self.angle)
+            slow = None if measured is not None else self._slow_reading()
+            if measured is None and slow is None:
+                # Motion, but none along the link. If the link was turning, it is hidden
+                # (size 0, eta says so, until the link is seen again); if it was at rest,
+                # this is a distractor (no size). Either way there is nothing to roll the
+                # prediction on from: hold.
+                self.hidden = self.hidden or self._was_moving()
+                self.sizes.append(0.0 if self.hidden else None)
+                return self._hold(trust=self.trust_factor()), False
+        location, visible_length = measured if measured is not None else slow
         self.hidden = False
         self.sizes.append(visible_length)
         trust = self.trust_factor()
@@ -383,9 +442,9 @@ class DON:
             self.predicting_for = 0
         omega, alpha = float(self.path.omega()[0]), float(self.path.alpha()[0])
         # delta1_1 spans frames t-1 and t: the location is half a frame old.
-        current = self.angle + 0.5 * omega / self.fps
+        current = self.angle + (0.5 * omega / self.fps if measured is not None else 0.0)
         self.estimate = self._estimate(current, omega, alpha, trust, predicted)
-        return self.estimate
+        return self.estimate, measured is not None
 
     def run(self, frames: Iterable[np.ndarray]) -> list[Estimate]:
         """Estimates for every frame of an iterable (a clip's frames, a video reader)."""

@@ -136,6 +136,10 @@ class PivotEstimator:
         if self._new >= self.refresh:
             self._stale, self._new = True, 0
 
+    def provisional(self) -> np.ndarray | None:
+        """Before a first pivot is agreed: the last solve's, awaiting the next to agree."""
+        return self._candidate if self._last is None else None
+
     def pivot(self) -> np.ndarray | None:
         """The current pivot (working pixels), or None before a first one is agreed."""
         if not self._stale or len(self.lines) < 12:
@@ -368,7 +372,7 @@ class LinkTracker:
             self.lost_for += 1
             return None
         self.lost_for = 0
-        if self.known_pivot is None:
+        if self.known_pivot is None and self.pivots.pivot() is not None:
             for index, *_ in kept:
                 self.pivots.add_line(lines[index])
         mean = math.atan2(sum(weight * math.sin(angle) for _, angle, weight, _, _ in kept),

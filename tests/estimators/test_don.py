@@ -269,3 +269,23 @@ def test_a_link_found_again_far_away_is_no_velocity() -> None:
     back = estimates[-3]
     assert abs(math.degrees(wrap_angle(back.angles[0] - later[-3]))) < 3.0
     assert abs(math.degrees(back.omega[0])) < 200.0
+
+
+def test_a_link_turning_too_slowly_for_consecutive_differences_is_still_followed() -> None:
+    """A dim bar (30 grey levels) turns 3 degrees a frame, then 0.3: too little for two
+    consecutive frames to differ by the threshold, so l_1 shows nothing along it. The
+    difference over half and all of the window still finds it, and DON follows it to
+    within 3 degrees instead of holding (which leaves it 15 degrees behind)."""
+    angles = [math.radians(30 + 3.0 * i) for i in range(20)]
+    angles += [math.radians(87 + 0.3 * i) for i in range(1, 60)]
+    frames = []
+    for angle in angles:
+        frame = np.zeros((H, W, 3), dtype=np.uint8)
+        tip = PIVOT + 100.0 * np.array([math.cos(angle), -math.sin(angle)])
+        cv2.line(frame, tuple(PIVOT.astype(int)), tuple(np.rint(tip).astype(int)),
+                 (30, 30, 30), thickness=8)
+        frames.append(frame)
+    estimates = DON(fps=FPS, pivot=tuple(PIVOT)).run(frames)
+    errors = [abs(math.degrees(e.angles[0] - a)) for e, a in zip(estimates, angles,
+                                                                  strict=True)]
+    assert max(errors[40:]) < 3.0
