@@ -179,12 +179,16 @@ class MotionMask:
         self.history.append(image)
         return mask
 
-    def difference_to(self, frames_back: int) -> np.ndarray:
+    def difference_to(self, frames_back: int,
+                      box: tuple[slice, slice] = (slice(None), slice(None))) -> np.ndarray:
         """delta2 of the newest frame to the one ``frames_back`` before it, binarised as
-        layer 2 does: (h, w) uint8, nonzero where some channel differs by more than the
-        threshold."""
-        return _any_channel_above(
-            cv2.absdiff(self.history[-1], self.history[-1 - frames_back]), self.threshold)
+        layer 2 does, within ``box`` (row and column slices; the whole frame by default):
+        (h, w) uint8, nonzero where some channel differs by more than the threshold."""
+        mask = np.zeros(self.history[-1].shape[:2], dtype=np.uint8)
+        mask[box] = _any_channel_above(
+            cv2.absdiff(self.history[-1][box], self.history[-1 - frames_back][box]),
+            self.threshold)
+        return mask
 
     def _moving_pixels(self, image: np.ndarray) -> np.ndarray:
         tau = self.threshold
@@ -366,8 +370,9 @@ class DON:
         if self.hidden or self.angle is None or len(self.motion.history) <= self.window:
             return None
         half = self.window // 2
-        mask = cv2.bitwise_and(self.motion.difference_to(half),
-                               self.motion.difference_to(self.window))
+        box = self.link.reach_box()
+        mask = cv2.bitwise_and(self.motion.difference_to(half, box),
+                               self.motion.difference_to(self.window, box))
         lines = component_lines(mask, self.min_area)
         return self.link.measure(lines, self.link.pivot(), self.angle)
 

@@ -133,7 +133,8 @@ class PivotEstimator:
         """``line``: a row of `component_lines` (centre, direction, length, elongation)."""
         self.lines.append(line)
         self._new += 1
-        if self._new >= self.refresh:
+        # Once agreed the pivot only gets refined: half as often.
+        if self._new >= (self.refresh if self._last is None else 2 * self.refresh):
             self._stale, self._new = True, 0
 
     def provisional(self) -> np.ndarray | None:
@@ -157,7 +158,8 @@ class PivotEstimator:
 
     def _solve(self) -> np.ndarray | None:
         """The densest point of the intersections of line pairs that cross at more than
-        10 degrees (mean shift from their median), if at least 20 such pairs exist."""
+        10 degrees (mean shift from their densest block), if at least 20 such pairs
+        exist."""
         lines = np.array(self.lines)
         centre, direction, weight = lines[:, 0:2], lines[:, 2:4], lines[:, 4]
         i, j = _pairs(len(lines))
@@ -168,7 +170,19 @@ class PivotEstimator:
             return None
         i, j, cross = i[good], j[good], cross[good]
         delta = centre[j] - centre[i]
+        # The crossing is at centre_i + along_i * direction_i = centre_j + along_j * ...
         along_i = (delta[:, 0] * dy[j] - delta[:, 1] * dx[j]) / cross
+        if self.reach_back is not None:
+            # Both regions must start near the crossing, beyond it: the gap from the
+            # crossing to a region's near end is over -reach_back and under its length.
+            along_j = (delta[:, 0] * dy[i] - delta[:, 1] * dx[i]) / cross
+            ok = np.ones(len(i), dtype=bool)
+            for k, along in ((i, along_i), (j, along_j)):
+                gap = np.abs(along) - 1.7 * weight[k]
+                ok &= (gap > -self.reach_back) & (gap < 3.4 * weight[k] + 3.0)
+            if np.count_nonzero(ok) < 20:
+                return None
+            i, j, along_i = i[ok], j[ok], along_i[ok]
         points = centre[i] + along_i[:, None] * direction[i]
         weights = weight[i] * weight[j]
         if self.directions is not None:
@@ -179,17 +193,6 @@ class PivotEstimator:
                 offset = centre[k] - points
                 bearing = np.arctan2(-offset[:, 1], offset[:, 0])
                 ok &= np.abs(wrap_angle(bearing - middle)) < half_width
-            if np.count_nonzero(ok) < 20:
-                return None
-            points, weights, i, j = points[ok], weights[ok], i[ok], j[ok]
-        if self.reach_back is not None:
-            # Both regions must start beyond the crossing, not straddle it.
-            ok = np.ones(len(points), dtype=bool)
-            for k in (i, j):
-                offset = centre[k] - points
-                along = np.abs(offset[:, 0] * dx[k] + offset[:, 1] * dy[k])
-                gap = along - 1.7 * weight[k]  # from the crossing to the region's near end
-                ok &= (gap > -self.reach_back) & (gap < 3.4 * weight[k] + 3.0)
             if np.count_nonzero(ok) < 20:
                 return None
             points, weights = points[ok], weights[ok]
@@ -204,17 +207,23 @@ class PivotEstimator:
         return point
 
 
+_NEIGHBOURS = np.array([(i << 21) + j for i in (-1, 0, 1) for j in (-1, 0, 1)], dtype=np.int64)
+
+
 def _densest(points: np.ndarray, cell: float = 3.0) -> np.ndarray:
     """The centre of the 3x3-cell block (cells of ``cell`` px) holding the most of
     ``points`` (n, 2): where a mean shift should start. Not the median, which a crowd of
     stray crossings drags away from a tight cluster of true ones; and by count, not by
     length: an occluder's long edges would outweigh the link's short slivers."""
     cells = np.floor(points / cell).astype(np.int64)
-    offsets = np.array([(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1)])
-    voted = (cells[:, None, :] + offsets[None, :, :]).reshape(-1, 2)
-    keys, inverse = np.unique(voted, axis=0, return_inverse=True)
-    totals = np.bincount(inverse.ravel())
-    return (keys[int(np.argmax(totals))] + 0.5) * cell
+    # One integer per cell (rows and columns well inside +-2^20 cells), so that the
+    # grouping sorts plain integers, not rows.
+    keys = (cells[:, 0] << 21) + cells[:, 1]
+    voted = (keys[:, None] + _NEIGHBOURS[None, :]).ravel()
+    unique, inverse = np.unique(voted, return_inverse=True)
+    best = int(unique[int(np.argmax(np.bincount(inverse)))])
+    column = (best + (1 << 20)) >> 21
+    return (np.array([column, best - (column << 21)]) + 0.5) * cell
 
 
 def _slide_from(line: np.ndarray, previous: np.ndarray) -> int | None:
@@ -223,19 +232,19 @@ def _slide_from(line: np.ndarray, previous: np.ndarray) -> int | None:
     length and overlapping it along the axis, if that lies SHIFT_PX or more off it across.
     The nearest, not any: a turning link's leading sliver has last frame's trailing one
     parallel beside it, one link width away, and last frame's leading one just behind it."""
-    if len(previous) == 0:
-        return None
-    cx, cy, dx, dy, length = line[:5]
-    ox, oy = previous[:, 0] - cx, previous[:, 1] - cy
-    parallel = np.abs(previous[:, 2] * dy - previous[:, 3] * dx) < math.sin(math.radians(TURN_DEG))
-    similar = (previous[:, 4] > 0.7 * length) & (previous[:, 4] < 1.4 * length)
-    across = np.abs(ox * dy - oy * dx)
-    along = np.abs(ox * dx + oy * dy)
-    match = np.flatnonzero(parallel & similar & (across < 3 * length) & (along < 1.7 * length))
-    if len(match) == 0:
-        return None
-    nearest = int(match[np.argmin(across[match])])
-    return nearest if across[nearest] > SHIFT_PX else None
+    # Scalars: a frame has a few lines, and numpy's per-call cost on arrays that short is
+    # many times the arithmetic.
+    cx, cy, dx, dy, length = line[:5].tolist()
+    parallel_sin = math.sin(math.radians(TURN_DEG))
+    nearest, nearest_across = None, math.inf
+    for index, (px, py, pdx, pdy, plength, *_) in enumerate(previous.tolist()):
+        ox, oy = px - cx, py - cy
+        across = abs(ox * dy - oy * dx)
+        if (abs(pdx * dy - pdy * dx) < parallel_sin and 0.7 * length < plength < 1.4 * length
+                and across < 3 * length and abs(ox * dx + oy * dy) < 1.7 * length
+                and across < nearest_across):
+            nearest, nearest_across = index, across
+    return nearest if nearest_across > SHIFT_PX else None
 
 
 class LinkTracker:
@@ -395,6 +404,17 @@ class LinkTracker:
         if abs(wrap_angle(axis - middle)) > math.pi / 2:
             axis += math.pi
         return float(wrap_angle(axis))
+
+    def reach_box(self) -> tuple[slice, slice]:
+        """Row and column slices (working px) of the square around the pivot that the
+        radius gate lets the link reach (1.6 radii); everything before both are known."""
+        pivot = self.pivot()
+        if pivot is None or self.radius is None:
+            return slice(None), slice(None)
+        reach = 1.6 * self.radius
+        (left, top), (right, bottom) = (np.floor(pivot - reach).astype(int),
+                                        np.ceil(pivot + reach).astype(int))
+        return slice(max(top, 0), max(bottom, 0)), slice(max(left, 0), max(right, 0))
 
     def keypoints(self, angle: float) -> np.ndarray | None:
         """(2, 2) working pixels of the pivot and the link's tip, once both are known."""
