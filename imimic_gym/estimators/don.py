@@ -272,6 +272,7 @@ class DON:
         self.angle: float | None = None  # absolute image angle of the link, rad
         self.predicting_for = 0
         self.hidden = False  # the link vanished while turning and has not been seen since
+        self.missing = 0  # frames running without a reading of the link
         # Before the arm has moved DON has seen nothing: the middle of the joint's range
         # (if known) is the guess least far from anywhere the arm can be.
         start = (self.reference_direction if self.joint_range is None
@@ -376,6 +377,20 @@ class DON:
         lines = component_lines(mask, self.min_area)
         return self.link.measure(lines, self.link.pivot(), self.angle)
 
+    def _link_missing(self, moved: bool) -> Estimate:
+        """No reading of the link in this frame: hold the last estimate. The link is
+        hidden (size 0 in the trust factor, until it is seen again, resting or not) once
+        it has been missing two frames running after turning faster than VANISH_DEG a
+        frame: a link that fast cannot stop dead, and one frame without it is as often a
+        reading that failed as an occluder. Otherwise the frame has no size: at rest,
+        nothing to distrust where nothing ``moved``; where something did, eta as it
+        stands."""
+        self.missing += 1
+        if self.missing >= 2 and self._was_moving(VANISH_DEG, frames=3):
+            self.hidden = True
+        self.sizes.append(0.0 if self.hidden else None)
+        return self._hold(trust=self.trust_factor() if self.hidden or moved else 1.0)
+
     def _before_pivot(self, lines: np.ndarray) -> Estimate:
         """The estimate until a pivot is agreed: the link's direction about the last
         solve's pivot where there is one (`PivotEstimator.provisional`), else the longest
@@ -402,15 +417,10 @@ class DON:
 
         measured = None
         if area < self.min_area:
-            # Nothing moved: nothing to distrust, unless the link vanished while turning
-            # and has not been seen since (it is still hidden, resting or not). A link
-            # turning faster than VANISH_DEG a frame in the last three cannot stop dead:
-            # it vanished (the frame it vanished in reads a bogus v of its own).
-            self.hidden = self.hidden or self._was_moving(VANISH_DEG, frames=3)
+            # Nothing moved: nothing to distrust, unless the link vanished (below).
             slow = None if self.link.pivot() is None else self._slow_reading()
             if slow is None:
-                self.sizes.append(0.0 if self.hidden else None)
-                return self._hold(trust=self.trust_factor() if self.hidden else 1.0), False
+                return self._link_missing(moved=False), False
         else:
             lines = self.link.lines(mask)
             pivot = self.link.pivot()
@@ -421,13 +431,10 @@ class DON:
             measured = self.link.measure(lines, pivot, self.angle)
             slow = None if measured is not None else self._slow_reading()
             if measured is None and slow is None:
-                # Motion, but none along the link. If the link was turning, it is hidden
-                # (size 0, eta says so, until the link is seen again); if it was at rest,
-                # this is a distractor (no size). Either way there is nothing to roll the
-                # prediction on from: hold.
-                self.hidden = self.hidden or self._was_moving()
-                self.sizes.append(0.0 if self.hidden else None)
-                return self._hold(trust=self.trust_factor()), False
+                # Motion, but none along the link: the link is hidden (below), or at rest
+                # while a distractor moves.
+                return self._link_missing(moved=True), False
+        self.missing = 0
         location, visible_length = measured if measured is not None else slow
         self.hidden = False
         self.sizes.append(visible_length)

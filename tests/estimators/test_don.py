@@ -99,16 +99,17 @@ def test_an_occluder_hiding_the_outer_part_of_the_link_gives_its_eta(
         frame[seen == 0] = 0
     trust = [e.trust for e in DON(fps=FPS).run(frames)]
     assert min(trust[30:41]) > 0.95  # the whole link, turning steadily
-    # Frame 40 hides the link and the difference to frame 41 still sees it vanish.
-    assert low <= min(trust[42:49]) and max(trust[42:49]) <= high
+    # Frame 40 hides the link, the difference to frame 41 still sees it vanish, and a link
+    # missing for one frame is not yet hidden (`DON._link_missing`).
+    assert low <= min(trust[43:49]) and max(trust[43:49]) <= high
 
 
 @pytest.mark.parametrize("distractor", [False, True])
 def test_a_link_hidden_for_longer_than_the_window_stays_distrusted(distractor: bool) -> None:
     """The turning bar disappears behind a static black board at frame 40 and stays there
     for 30 frames (three windows), with nothing else moving or with a dot moving in a
-    corner. eta stays 0 until the link is seen again; it does not drift back to 1 once the
-    last measurement has left the window."""
+    corner. From the second frame without it, eta stays 0 until the link is seen again;
+    it does not drift back to 1 once the last measurement has left the window."""
     angles = [math.radians(30 + 2.0 * i) for i in range(70)]
     frames = [bar_frame(a) for a in angles]
     for i, frame in enumerate(frames[40:]):
@@ -117,7 +118,7 @@ def test_a_link_hidden_for_longer_than_the_window_stays_distrusted(distractor: b
             cv2.circle(frame, (20 + 2 * i, 20), 4, (255, 255, 255), -1)
     trust = [e.trust for e in DON(fps=FPS).run(frames)]
     assert min(trust[30:40]) > 0.85
-    assert max(trust[41:]) < 0.05
+    assert max(trust[42:]) < 0.05
 
 
 def test_a_region_where_the_joint_cannot_turn_is_not_the_link() -> None:
@@ -289,3 +290,14 @@ def test_a_link_turning_too_slowly_for_consecutive_differences_is_still_followed
     errors = [abs(math.degrees(e.angles[0] - a)) for e, a in zip(estimates, angles,
                                                                   strict=True)]
     assert max(errors[40:]) < 3.0
+
+
+def test_one_frame_without_the_link_does_not_read_as_occlusion() -> None:
+    """A duplicated frame in a steady turn (a video that repeats a frame) leaves one
+    frame with no moving pixel. That is a failed reading, not an occluder: eta stays
+    high over the next window instead of dropping to 0 for ten frames."""
+    angles = [math.radians(30 + 3.0 * i) for i in range(30)]
+    angles[8] = angles[7]  # before the window fills: no longer difference to read it from
+    estimates = DON(fps=FPS, pivot=tuple(PIVOT)).run(bar_frame(a) for a in angles)
+    trust = [e.trust for e in estimates]
+    assert min(trust[9:19]) > 0.85
