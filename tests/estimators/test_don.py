@@ -301,3 +301,25 @@ def test_one_frame_without_the_link_does_not_read_as_occlusion() -> None:
     estimates = DON(fps=FPS, pivot=tuple(PIVOT)).run(bar_frame(a) for a in angles)
     trust = [e.trust for e in estimates]
     assert min(trust[9:19]) > 0.85
+
+
+def test_the_prediction_layer_carries_a_hidden_link_on() -> None:
+    """The bar turns 3 degrees a frame and is hidden (black) for frames 40-45. With the
+    prediction layer on, those estimates are flagged predicted and roll on in the
+    direction of the turn, nearer the truth than the held angle without it; both stay
+    finite, and the link is read again once it reappears."""
+    angles = [math.radians(30 + 3.0 * i) for i in range(56)]
+    frames = [bar_frame(a) for a in angles]
+    for frame in frames[40:46]:
+        frame[:] = 0
+    on = DON(fps=FPS, pivot=tuple(PIVOT), trust_threshold=0.3).run(frames)
+    off = DON(fps=FPS, pivot=tuple(PIVOT)).run(frames)
+
+    def error(estimates: list, frame: int) -> float:
+        return abs(math.degrees(wrap_angle(estimates[frame].angles[0] - angles[frame])))
+
+    hidden = range(41, 46)
+    assert all(on[i].predicted for i in hidden) and not any(off[i].predicted for i in hidden)
+    assert np.mean([error(on, i) for i in hidden]) < np.mean([error(off, i) for i in hidden]) - 3
+    assert all(np.isfinite(e.angles).all() and np.isfinite(e.omega).all() for e in on)
+    assert error(on, 55) < 3.0 and not on[55].predicted
