@@ -33,7 +33,8 @@ from imimic_gym.estimators import don, frames, geometry, motion
 # reported on their own and inside their caller.
 STAGES = (
     (frames.WorkingFrames, "__call__", "layer 1: downscale + Gaussian"),
-    (don.DON, "_moving_pixels", "layers 2-3: differences, union, l_1"),
+    (don.MotionMask, "_moving_pixels", "layers 2-3: differences, union, l_1"),
+    (don.DON, "_slow_reading", "slow link: delta2 half and a whole window back"),
     (don.SlidingExtrema, "push", "layer 2: sliding min/max update"),
     (geometry.LinkTracker, "lines", "regression: lines of regions (+ pivot lookups)"),
     (geometry, "component_lines", "  of which component_lines"),

@@ -44,16 +44,8 @@ fi
 # the candidates' .pt files (training/train_tracker.py runs), so it is not rerun here.
 "$BIN/imimic" eval --paper --json benchmarks/results/paper.json --out benchmarks/results/paper
 "$BIN/python" benchmarks/eval_paper_time.py --json benchmarks/results/paper_time.json
-# DON's time by stage (issue 3 speed), now and at the commit before the speed work, and
-# its estimates compared field by field with that commit.
+# DON's time by stage (issue 3 speed).
 "$BIN/python" benchmarks/don_stages.py --json benchmarks/results/don_stages.json
-before=$(mktemp -d)
-git archive fcce9b4 imimic_gym | tar -x -C "$before"
-PYTHONPATH="$before" "$BIN/python" benchmarks/don_stages.py \
-    --json benchmarks/results/don_stages_before.json
-rm -rf "$before"
-"$BIN/python" benchmarks/don_same_estimates.py --base fcce9b4 \
-    --json benchmarks/results/don_same_estimates.json
 "$BIN/imimic" eval --scenario chain-2 chain-3 exp4-hand --estimator don --episodes 10 \
     --json benchmarks/results/don_links.json
 "$BIN/python" benchmarks/don_links_speed.py --json benchmarks/results/don_links_speed.json

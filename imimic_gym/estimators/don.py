@@ -13,9 +13,10 @@ Decisions where the paper is vague or inconsistent (each is also noted where it 
   levels, not the paper's 15x15 and our earlier 12. A forearm is 5-6 px wide at 240x320
   with the person 2.2 m away; the paper's kernel spreads it over three times that, and a
   forearm turning a degree or two per frame then changes no pixel by 12 levels, so DON
-  held a stale angle through every slow stretch. Chosen on development clips (seeds
-  0-19): with the elbow given, settled RMSE 7.6 -> 5.5 deg on `exp3-forearm-none` and
-  14.1 -> 8.7 on `exp3-forearm-low` (benchmarks/RESULTS.md has the held-out figures).
+  held a stale angle through every slow stretch. Chosen on development clips: with the
+  elbow given, settled RMSE 6.6 -> 5.5 deg on `exp3-forearm-none`, 11.5 -> 8.7 on
+  `exp3-forearm-low`, 17.9 -> 15.9 on `exp3-forearm-high` (`benchmarks/don_dev_seeds.py
+  --pivot-given`, with and without ``--param gaussian=15 --param threshold=12``).
 - Difference indices. The paper's Eq. (f1) runs p = 0..N-1 and so needs f_{t+1}; we use
   delta1_p = |f_{t-p+1} - f_{t-p}|, p = 1..N, so delta1_1 is the newest difference.
 - Incremental union. |f_t - f_{t-p}| > tau for some p exactly when f_t > min_p f_{t-p} +
@@ -54,12 +55,14 @@ Decisions where the paper is vague or inconsistent (each is also noted where it 
   largest) with eta below the threshold: it rolls the last trusted velocity on for at
   most N frames, then holds. Not with Eq. (VAPr) as printed, v <- v + a, a <- a + a': V
   and A differenced from frame to frame are noisy, and that cubic extrapolation ran away
-  within a few frames of an occlusion (development clips of `exp3-forearm-low`: RMSE on
-  occluded frames 39.6 deg with it, 21.6 without the layer, even capped at the largest
-  v and a seen). Eq. (VAPr)'s recursion is kept with the acceleration set to brake the
-  arm, a = -(1 - COAST_DECAY) v, so v shrinks by COAST_DECAY a frame (20.9 deg). A
-  frame with no motion at all keeps the last estimate and eta = 1 ("nothing to
-  distrust"). Nothing here can produce NaN.
+  within a few frames of an occlusion, even capped at the largest v and a seen (tried
+  on development clips; it was worse than no prediction at all). Eq. (VAPr)'s recursion
+  is kept with the acceleration set to brake the arm, a = -(1 - COAST_DECAY) v, so v
+  shrinks by COAST_DECAY a frame: on the occluded frames of development clips, 20.9
+  deg with the layer on (threshold 0.3) against 21.6 off on `exp3-forearm-low`, 31.4
+  against 31.7 on `exp3-forearm-high` (`benchmarks/don_dev_seeds.py --param
+  trust_threshold=0.3`). A frame with no motion at all keeps the last estimate and eta
+  = 1 ("nothing to distrust"). Nothing here can produce NaN.
 """
 
 from __future__ import annotations
@@ -290,9 +293,6 @@ class DON:
         self.estimate = self._estimate(start, 0.0, 0.0, trust=1.0, predicted=False)
         self.last_mask: np.ndarray | None = None
         self.guess: float | None = None  # the last direction guessed before the pivot
-        # Per frame of MotionMask.history: the angle reported for it, and whether l_1
-        # measured it (None before the pivot).
-        self.reported: deque[tuple[float, bool] | None] = deque(maxlen=self.window)
 
     @property
     def scale(self) -> float:
@@ -362,14 +362,6 @@ class DON:
         recent = list(self.path.V)[-frames:]
         return any(abs(float(v[0])) > math.radians(degrees_per_frame) for v in recent)
 
-    def update(self, frame: np.ndarray) -> Estimate:
-        """Take the next (H, W, 3) uint8 RGB frame; return the estimate for it."""
-        estimate, measured = self._update(frame)
-        self.reported.append(None if self.link is None or self.link.pivot() is None
-                             else (float(estimate.angles[0]) + self.reference_direction,
-                                   measured))
-        return estimate
-
     def _slow_reading(self) -> tuple[float, float] | None:
         """Where the link is when l_1 shows nothing along it: a link turning under a
         degree a frame moves too little between two frames, but not over half a window.
@@ -424,14 +416,14 @@ class DON:
         self.guess = guess
         return self._estimate(guess, 0.0, 0.0, trust=1.0, predicted=False)
 
-    def _update(self, frame: np.ndarray) -> tuple[Estimate, bool]:
-        """The estimate for ``frame``, and whether l_1 measured the link in it."""
+    def update(self, frame: np.ndarray) -> Estimate:
+        """Take the next (H, W, 3) uint8 RGB frame; return the estimate for it."""
         mask = self.motion(frame)
         if mask is None:
             pivot = None if self.known_pivot is None else self.known_pivot / self.scale
             self.link = LinkTracker(self.reference_direction, pivot, self.joint_range,
                                     self.min_area, reach_back=REACH_BACK_PX)
-            return self.estimate, False
+            return self.estimate
         self.last_mask = mask
         area = cv2.countNonZero(mask)
 
@@ -440,20 +432,20 @@ class DON:
             # Nothing moved: nothing to distrust, unless the link vanished (below).
             slow = None if self.link.pivot() is None else self._slow_reading()
             if slow is None:
-                return self._link_missing(moved=False), False
+                return self._link_missing(moved=False)
         else:
             lines = self.link.lines(mask)
             pivot = self.link.pivot()
             if pivot is None:
                 self.estimate = self._before_pivot(lines)
-                return self.estimate, False
+                return self.estimate
             # DON layer 3 + object regression: where the link is, from l_1's regions.
             measured = self.link.measure(lines, pivot, self.angle)
             slow = None if measured is not None else self._slow_reading()
             if measured is None and slow is None:
                 # Motion, but none along the link: the link is hidden (below), or at rest
                 # while a distractor moves.
-                return self._link_missing(moved=True), False
+                return self._link_missing(moved=True)
         self.missing = 0
         location, visible_length = measured if measured is not None else slow
         self.hidden = False
@@ -463,7 +455,7 @@ class DON:
         # not because an earlier frame in the window did (the link back in full view).
         partial = visible_length < PARTIAL * max(m for m in self.sizes if m is not None)
         if trust < self.trust_threshold and partial and self.angle is not None:
-            return self._predicted(trust), False
+            return self._predicted(trust)
         # DON layer 4a: path estimator on the measured location. A jump no arm makes in a
         # frame is the link found again after a wrong or lost reading: its difference is
         # no velocity, so the path starts afresh from here.
@@ -476,7 +468,7 @@ class DON:
         # delta1_1 spans frames t-1 and t: the location is half a frame old.
         current = self.angle + (0.5 * omega / self.fps if measured is not None else 0.0)
         self.estimate = self._estimate(current, omega, alpha, trust, predicted=False)
-        return self.estimate, measured is not None
+        return self.estimate
 
     def run(self, frames: Iterable[np.ndarray]) -> list[Estimate]:
         """Estimates for every frame of an iterable (a clip's frames, a video reader)."""

@@ -1,0 +1,136 @@
+"""DON on DEVELOPMENT clips (seeds below 1000; 0-19 by default), for choosing its
+parameters and rules without touching the held-out clips that `imimic eval` reports.
+
+Per scenario: the mean settled RMSE (deg, after the first 0.5 s, as `imimic eval`), the
+mean eta, on clips with occluded frames (over 10% of the link hidden) the RMSE on those
+frames and eta on them and on the others, and the median distance (input px) from the
+pivot DON found to the true elbow (person scenarios). Any DON keyword can be set with
+``--param NAME=VALUE`` (repeatable); ``--pivot-given`` tells DON where the elbow is.
+
+    .venv/bin/python benchmarks/don_dev_seeds.py                       # defaults
+    .venv/bin/python benchmarks/don_dev_seeds.py --param trust_threshold=0.3 \\
+        --scenarios exp3-forearm-low exp3-forearm-high
+    .venv/bin/python benchmarks/don_dev_seeds.py --param gaussian=15 --param threshold=12
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import json
+import os
+from multiprocessing import Pool
+from pathlib import Path
+from typing import Any
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import numpy as np
+
+from imimic_gym.bench import machine
+from imimic_gym.clips.cache import load_clip
+from imimic_gym.clips.scenarios import get_scenario
+from imimic_gym.estimators.don import DON
+from imimic_gym.evaluation import WARM_UP_S
+from imimic_gym.metrics import OCCLUDED, angle_rmse_deg
+from imimic_gym.suite import FIRST_HELD_OUT_SEED
+
+SCENARIOS = ("exp3-forearm-none", "exp3-forearm-low", "exp3-forearm-high", "exp2-servo",
+             "default", "exp1-noisy-fast")
+ELBOW = 1  # keypoint index of the elbow in a one-link person clip
+
+
+def run_clip(job: tuple[str, int, dict[str, Any], bool]) -> dict[str, Any]:
+    """Scores for one clip: DON with ``params`` on ``scenario`` seed ``seed``."""
+    scenario, seed, params, pivot_given = job
+    spec = get_scenario(scenario, seed=seed)
+    clip = load_clip(spec, progress=False)
+    person = spec.demonstrator == "human"
+    elbow = clip.truth.keypoints[:, ELBOW].mean(axis=0) if person else None
+    if pivot_given and person:
+        params = {**params, "pivot": tuple(float(v) for v in elbow)}
+    don = DON(fps=clip.fps, reference_direction=spec.reference_direction,
+              joint_range=spec.joint_ranges[0], **params)
+    estimates = don.run(clip.frames)
+    angles = np.array([e.angles for e in estimates])
+    trust = np.array([e.trust for e in estimates])
+    warm = round(WARM_UP_S * clip.fps)
+    row: dict[str, Any] = {
+        "scenario": scenario, "seed": seed,
+        "rmse_deg_settled": angle_rmse_deg(angles[warm:], clip.truth.angles[warm:]),
+        "mean_trust": float(trust.mean()),
+    }
+    occluded = clip.truth.occlusion > OCCLUDED
+    if occluded.any() and not occluded.all():
+        row["rmse_occluded_deg"] = angle_rmse_deg(angles[occluded], clip.truth.angles[occluded])
+        row["mean_trust_occluded"] = float(trust[occluded].mean())
+        row["mean_trust_clear"] = float(trust[~occluded].mean())
+    found = don.link.pivot() if don.link is not None else None
+    if person and found is not None:
+        row["pivot_error_px"] = float(np.hypot(*(found * don.scale - elbow)))
+    return row
+
+
+def summarise(rows: list[dict[str, Any]]) -> dict[str, float]:
+    keys = ("rmse_deg_settled", "mean_trust", "rmse_occluded_deg", "mean_trust_occluded",
+            "mean_trust_clear")
+    out = {k: float(np.mean([r[k] for r in rows if k in r])) for k in keys
+           if any(k in r for r in rows)}
+    pivots = [r["pivot_error_px"] for r in rows if "pivot_error_px" in r]
+    if pivots:
+        out["pivot_error_px_median"] = float(np.median(pivots))
+    return out
+
+
+def parse_param(text: str) -> tuple[str, Any]:
+    name, _, value = text.partition("=")
+    if not name or not value:
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
+    try:
+        return name, ast.literal_eval(value)
+    except (ValueError, SyntaxError):
+        return name, value
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--scenarios", nargs="+", default=list(SCENARIOS),
+                        help="one-link scenarios (default: %(default)s)")
+    parser.add_argument("--seeds", type=int, nargs=2, default=(0, 20), metavar=("FIRST", "END"),
+                        help="clip seeds FIRST..END-1, below 1000 (default: 0 20)")
+    parser.add_argument("--param", type=parse_param, action="append", default=[],
+                        help="a DON keyword, NAME=VALUE (repeatable)")
+    parser.add_argument("--pivot-given", action="store_true",
+                        help="tell DON the true elbow (person scenarios)")
+    parser.add_argument("--processes", type=int, default=2, help="worker processes")
+    parser.add_argument("--json", type=Path, default=None, help="also write the results here")
+    args = parser.parse_args()
+    first, end = args.seeds
+    if end > FIRST_HELD_OUT_SEED:
+        parser.error(f"development seeds stay below {FIRST_HELD_OUT_SEED} (held out)")
+    params = dict(args.param)
+    jobs = [(s, seed, params, args.pivot_given) for s in args.scenarios
+            for seed in range(first, end)]
+    with Pool(args.processes) as pool:
+        rows = pool.map(run_clip, jobs)
+    results = {s: summarise([r for r in rows if r["scenario"] == s]) for s in args.scenarios}
+    print(f"DON {params or 'defaults'}{', pivot given' if args.pivot_given else ''}, "
+          f"development seeds {first}-{end - 1}")
+    for scenario, m in results.items():
+        occluded = (f", occluded frames {m['rmse_occluded_deg']:.2f} deg, eta occluded/clear "
+                    f"{m['mean_trust_occluded']:.2f}/{m['mean_trust_clear']:.2f}"
+                    if "rmse_occluded_deg" in m else "")
+        pivot = (f", pivot off {m['pivot_error_px_median']:.0f} px"
+                 if "pivot_error_px_median" in m else "")
+        print(f"  {scenario:18s} settled RMSE {m['rmse_deg_settled']:6.2f} deg, eta "
+              f"{m['mean_trust']:.2f}{occluded}{pivot}")
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps({"params": params, "pivot_given": args.pivot_given,
+                                         "seeds": [first, end], "machine": machine(),
+                                         "results": results, "rows": rows}, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()
