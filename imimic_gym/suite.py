@@ -16,6 +16,7 @@ import gymnasium as gym
 import numpy as np
 from tqdm import tqdm
 
+from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
 from imimic_gym.rollout import Trajectory, run_episode
 
@@ -162,6 +163,14 @@ def run_config(config: RunConfig, num_envs: int = 1) -> list[Trajectory]:
 
 def _run_vector(config: RunConfig, num_envs: int) -> list[Trajectory]:
     sync = config.controller == "oracle"
+    if not sync:
+        # Render the clips into the cache here, once, before the sub-env processes fork:
+        # two of them rendering clips of their own (two EGL contexts in forked children)
+        # hung `imimic eval --num-envs 2` on seeds not yet cached.
+        spec = get_scenario(config.scenario,
+                            **({"n_frames": config.frames} if config.frames else {}))
+        for seed in config.seeds:
+            load_clip(spec.replace(seed=seed))
     vec = gym.make_vec("ImitateVideo-v0", num_envs=num_envs,
                        vectorization_mode="sync" if sync else "async",
                        wrappers=[ESTIMATORS[config.estimator]], **config.env_kwargs())

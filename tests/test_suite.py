@@ -1,5 +1,8 @@
 import json
 import math
+import os
+import subprocess
+import sys
 
 import pytest
 
@@ -74,3 +77,17 @@ def test_registries_refuse_unknown_names() -> None:
 def test_estimator_only_eval_refuses_baselines_on_several_links_by_name() -> None:
     with pytest.raises(SystemExit, match="follow one moving link; 'chain-2' has 2"):
         main(["eval", "--scenario", "chain-2", "--estimator", "mog2", "--episodes", "1"])
+
+
+def test_a_vectorised_sweep_on_clips_not_yet_rendered_finishes(tmp_path) -> None:
+    """Sub-env processes forked by gym.make_vec that each had to render a clip hung; the
+    suite renders the clips first. Run in a child process with an empty clip cache, so a
+    hang fails the test at the timeout instead of stalling the suite."""
+    script = ("from imimic_gym.suite import RunConfig, run_config, summarise\n"
+              "config = RunConfig('exp2-servo', 'don', 'position', seeds=(11, 12), frames=20)\n"
+              "print([r['seed'] for r in summarise(config, run_config(config, 2))['rows']])\n")
+    env = {**os.environ, "IMIMIC_CACHE_DIR": str(tmp_path / "cache")}
+    done = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip().endswith("[11, 12]")
