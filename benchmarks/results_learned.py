@@ -142,11 +142,12 @@ def retrain(load: Callable[[str], object],
     seeds = data["seeds"]
     return f"""
 
-The estimator changed after that choice (DON's link geometry and trust factor, issue 3),
-so the chosen training command was run again on the merged DON, with two variants (another
-SAC seed; reward balance 0.9, now the default), and every policy compared with the old
-one on the same validation clips ({seeds[0]}-{seeds[-1]}) by the same rule; the best was
-shipped. Command: `.venv/bin/python benchmarks/tracker_candidates.py <the four .pt files>
+The estimator changed after those choices (this session: DON's smoothing and threshold,
+its pivot, the slow-link reading and the trust factor, issue 3), and the candidates table
+above was measured on the DON of its day. So the default training command was run again
+on today's DON with SAC seeds 0 and 1, and both compared with the policy shipped until
+then on the same validation clips ({seeds[0]}-{seeds[-1]}) by the same rule; the best was
+shipped. Command: `.venv/bin/python benchmarks/tracker_candidates.py <the three .pt files>
 --json benchmarks/results/tracker_retrain.json`:
 
 {table(["policy (training command)", "`exp2-servo` RMSE (deg)",

@@ -52,6 +52,22 @@ def main() -> None:
                       for other in ("don", "mog2", "camshift") if other != estimator)]
         return ", ".join(f"`{s}`" for s in won) or "no scenario"
 
+    def depth_gap(row: dict) -> float:
+        """Depth's settled RMSE less colour's, on the same clips (deg)."""
+        return row["mean"]["rmse_deg_settled"] - ev(row["scenario"], "don")
+
+    def named(rows: list[dict]) -> str:
+        return ", ".join(f"`{r['scenario']}`" for r in rows) or "no scenario"
+
+    def within_a_degree(rows: list[dict]) -> str:
+        return named([r for r in rows if abs(depth_gap(r)) <= 1])
+
+    def depth_better(rows: list[dict]) -> str:
+        return named([r for r in rows if depth_gap(r) < -1])
+
+    def depth_worse(rows: list[dict]) -> str:
+        return named([r for r in rows if depth_gap(r) > 1])
+
     episodes, first_seed = evaluation[0]["episodes"], evaluation[0]["first_seed"]
 
     render = dict(env["render_frames_per_s"])
@@ -219,9 +235,10 @@ exp3-forearm-low exp3-forearm-high exp1-noisy-fast --estimator don --episodes {e
        [[f"`{r['scenario']}`", f"{ev(r['scenario'], 'don'):.2f}", f"{r['mean']['rmse_deg_settled']:.2f}",
          f"{r['mean']['lag_frames']:.1f}", f"{r['mean']['mean_trust']:.2f}"] for r in depth])}
 
-Depth is close to colour on the servo and better on the person against clutter: a
-depth frame shows no background texture and no coloured posters, only what stands out
-in distance. It does not help against the occluder, which stands out in depth too.
+Depth is within a degree of colour on {within_a_degree(depth)}; better by more on
+{depth_better(depth)}; worse by more on {depth_worse(depth)}. A depth frame shows no
+background texture and no coloured posters, only what stands out in distance; but the
+occluder stands out in depth too, and the thin forearm against the wall barely does.
 
 The clips differ a lot from one another in the cluttered scenarios: per clip, DON's
 settled RMSE on `exp3-forearm-low` is {per_clip('exp3-forearm-low', 'don')} degrees. Means over three clips, as this
