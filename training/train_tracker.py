@@ -83,8 +83,9 @@ class Args:
     """SAC: gradient updates per vectorised env step (one step of every env)"""
     learning_starts: int = 2_000
     """SAC: env steps with uniformly random residuals (exploration) before the first update"""
-    seed: int = 0
-    """seeds torch, numpy, random and the envs"""
+    seed: int = 1
+    """seeds torch, numpy, random and the envs (1: the shipped policy's; seed 0 came out
+    behind it on the validation clips, benchmarks/RESULTS.md)"""
     threads: int = 1
     """torch threads (the machine is shared; 1 is as fast for these small nets)"""
     out: str = str(ROOT / "checkpoints" / "tracker.pt")
