@@ -307,10 +307,11 @@ class DON:
         M_p is the link's visible length in frame p: how far from the pivot the moving
         regions accepted as the link reach (`LinkTracker.measure`). The paper takes M_p as
         the area of l_p, assuming "the size of the moving object will remain almost the
-        same"; the area of a difference image does not (it grows with speed, so every start and stop
-        of a movement would read as occlusion), while the span of the link's moving pixels
-        stays the link's length at any speed. An occluder hides part of it, and M_1 drops:
-        a link whose outer half disappears gives eta = 0.5, the fraction still seen.
+        same"; the area of a difference image does not (it grows with speed, so every
+        start and stop of a movement would read as occlusion), while the reach of the
+        link's moving pixels stays the link's length at any speed. An occluder hides part
+        of it, and M_1 drops: a link whose outer half disappears gives eta = 0.5, the
+        fraction still seen.
         """
         sizes = [m for m in self.sizes if m is not None]  # at most N floats: no numpy
         if len(sizes) < 2:
@@ -357,10 +358,10 @@ class DON:
             self.estimate = self._estimate(self.angle, 0.0, 0.0, trust, predicted=False)
         return self.estimate
 
-    def _was_moving(self, degrees_per_frame: float = 0.5, frames: int = 1) -> bool:
-        """Any of the path estimator's last ``frames`` v exceeds ``degrees_per_frame``."""
-        recent = list(self.path.V)[-frames:]
-        return any(abs(float(v[0])) > math.radians(degrees_per_frame) for v in recent)
+    def _was_turning_fast(self) -> bool:
+        """Any of the path estimator's last three v exceeds VANISH_DEG a frame (the last
+        alone can be the bogus reading of the frame the link vanished in)."""
+        return any(abs(float(v[0])) > math.radians(VANISH_DEG) for v in list(self.path.V)[-3:])
 
     def _slow_reading(self) -> tuple[float, float] | None:
         """Where the link is when l_1 shows nothing along it: a link turning under a
@@ -386,7 +387,7 @@ class DON:
         nothing to distrust where nothing ``moved``; where something did, eta as it
         stands."""
         self.missing += 1
-        if self.missing >= 2 and self._was_moving(VANISH_DEG, frames=3):
+        if self.missing >= 2 and self._was_turning_fast():
             self.hidden = True
         self.sizes.append(0.0 if self.hidden else None)
         trust = self.trust_factor() if self.hidden or moved else 1.0
