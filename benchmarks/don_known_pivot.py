@@ -18,38 +18,23 @@ from pathlib import Path
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np
+from don_dev_seeds import run_clip
 from tqdm import tqdm
 
 from imimic_gym.bench import machine
-from imimic_gym.clips.cache import load_clip
-from imimic_gym.clips.scenarios import get_scenario
-from imimic_gym.estimators.don import DON
-from imimic_gym.evaluation import WARM_UP_S
-from imimic_gym.metrics import angle_rmse_deg
 
 SCENARIOS = ("exp3-forearm-none", "exp3-forearm-low", "exp3-forearm-high")
-ELBOW = 1  # keypoint index of the elbow in a one-link person clip
 
 
 def run(scenario: str, seeds: range) -> dict:
     rows = []
     for seed in tqdm(seeds, desc=scenario, leave=False):
-        spec = get_scenario(scenario, seed=seed)
-        clip = load_clip(spec, progress=False)
-        elbow = clip.truth.keypoints[:, ELBOW].mean(axis=0)
-        warm = round(WARM_UP_S * clip.fps)
-        row: dict = {"seed": seed}
-        for name, pivot in (("found", None), ("given", tuple(float(v) for v in elbow))):
-            don = DON(fps=clip.fps, reference_direction=spec.reference_direction,
-                      joint_range=spec.joint_ranges[0], pivot=pivot)
-            angles = np.array([e.angles for e in don.run(clip.frames)])
-            row[f"rmse_deg_settled_pivot_{name}"] = angle_rmse_deg(angles[warm:],
-                                                                   clip.truth.angles[warm:])
-            if pivot is None:
-                found = don.link.pivot()
-                row["pivot_error_px"] = (None if found is None else
-                                         float(np.hypot(*(found * don.scale - elbow))))
-        rows.append(row)
+        found, given = (run_clip((scenario, seed, {}, pivot_given))
+                        for pivot_given in (False, True))
+        rows.append({"seed": seed,
+                     "rmse_deg_settled_pivot_found": found["rmse_deg_settled"],
+                     "rmse_deg_settled_pivot_given": given["rmse_deg_settled"],
+                     "pivot_error_px": found.get("pivot_error_px")})
     mean = {key: float(np.mean([r[key] for r in rows]))
             for key in ("rmse_deg_settled_pivot_found", "rmse_deg_settled_pivot_given")}
     errors = [r["pivot_error_px"] for r in rows if r["pivot_error_px"] is not None]
