@@ -33,11 +33,11 @@ fi
     --json benchmarks/results/eval_cnn.json
 "$BIN/python" benchmarks/cnn_speed.py --json benchmarks/results/cnn_speed.json
 "$BIN/imimic" eval --scenario exp2-servo exp3-forearm-low --estimator don \
-    --controller position velocity torque position-hold velocity-hold torque-hold learned \
+    --controller position velocity torque learned \
     --episodes 10 --num-envs 2 --out benchmarks/results/tracking \
     --json benchmarks/results/tracking.json
 "$BIN/imimic" eval --scenario exp2-servo exp3-forearm-low --estimator don \
-    --controller position-hold velocity-hold learned --episodes 10 --first-seed 1010 \
+    --controller position velocity learned --episodes 10 --first-seed 1010 \
     --num-envs 2 --json benchmarks/results/tracking_fresh.json
 "$BIN/python" benchmarks/servo_error_sources.py --json benchmarks/results/servo_error_sources.json
 # benchmarks/tracker_candidates.py compares candidate policies on validation clips; it needs

@@ -3,7 +3,7 @@ shipped `checkpoints/tracker.pt` was chosen (issue 5).
 
 Each candidate is a ``.pt`` written by ``training/train_tracker.py`` with its ``.json``
 beside it; it runs with DON on each scenario's validation seeds, next to the
-velocity-hold and position-hold controllers on the same clips. Held-out seeds (1000 and
+velocity and position controllers on the same clips. Held-out seeds (1000 and
 up) are refused: they are kept for the final figure.
 
     .venv/bin/python benchmarks/tracker_candidates.py run_a/tracker.pt run_b/tracker.pt \\
@@ -54,13 +54,10 @@ def main() -> None:
         parser.error(f"--seeds must stay below {FIRST_HELD_OUT_SEED} (held out), "
                      f"got {max(args.seeds)}")
     rows = []
-    for name in ("position-hold", "velocity-hold"):
-        control = name.removesuffix("-hold")
+    for control in ("position", "velocity"):
         for scenario in SCENARIOS:
-            rows.append({"candidate": name, "scenario": scenario, **score(
-                scenario, control,
-                lambda env, c=control: SCRIPTED_CONTROLLERS[c](env, hold_until_moving=True),
-                args.seeds)})
+            rows.append({"candidate": control, "scenario": scenario, **score(
+                scenario, control, SCRIPTED_CONTROLLERS[control], args.seeds)})
     for path in args.checkpoints:
         meta_path = Path(path).with_suffix(".json")
         if not meta_path.is_file():

@@ -258,7 +258,8 @@ Against issue 3's acceptance:
   the link's visible length (how far from the pivot its moving regions reach; a link
   missing for two frames or more after turning fast counts as 0 until it is seen again,
   so a long occlusion keeps eta at 0 rather than drifting back to 1 once the last
-  measurement leaves the window). On a hand-built bar it reads what it should
+  measurement leaves the window; before DON's first reading it is 0 too, as its angle is
+  then a placeholder, the middle of the joint range). On a hand-built bar it reads what it should
   (`tests/estimators/test_don.py`: above 0.95 in the clear, within a few hundredths of
   the fraction left visible when the outer 20, 50 or 70% is hidden, 0 with most of it
   hidden). On the rendered clips its mean on occluded

@@ -480,8 +480,8 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--controller", nargs="+", default=None, choices=tuple(CONTROLLERS),
                           help="run the tracking suite with these controllers: oracle (true "
                                "angles, the upper bound), position (the paper's servo), "
-                               "velocity, torque, their -hold variants (keep the start pose "
-                               "until the estimate first moves), learned "
+                               "velocity, torque (each keeps the start pose until the "
+                               "estimator's first reading), learned "
                                "(checkpoints/tracker.pt)")
     evaluate.add_argument("--paper", action="store_true",
                           help="the paper's experiments 1-4 (DON + position and learned "

@@ -86,27 +86,24 @@ def _learned(env: gym.Env):
     return LearnedController(env)
 
 
-def _scripted(name: str, hold: bool = False) -> Callable[[gym.Env], Any]:
+def _scripted(name: str) -> Callable[[gym.Env], Any]:
     def build(env: gym.Env):
         from imimic_gym.controllers import SCRIPTED_CONTROLLERS
 
-        return SCRIPTED_CONTROLLERS[name](env, hold_until_moving=hold)
+        return SCRIPTED_CONTROLLERS[name](env)
 
     return build
 
 
 # Controller name -> (the env's control mode, factory taking the wrapped env). The oracle
 # reads the truth one frame ahead from the env itself and ignores the estimate. The
-# "-hold" variants keep the start pose until the estimate first moves (`EstimateTarget`).
+# scripted ones keep the start pose until the estimator's first reading (`EstimateTarget`).
 # The learned tracker's control mode is its checkpoint's (`RunConfig.control`).
 CONTROLLERS: dict[str, tuple[str, Callable[[gym.Env], Any]]] = {
     "oracle": ("position", _oracle),
     "position": ("position", _scripted("position")),
     "velocity": ("velocity", _scripted("velocity")),
     "torque": ("torque", _scripted("torque")),
-    "position-hold": ("position", _scripted("position", hold=True)),
-    "velocity-hold": ("velocity", _scripted("velocity", hold=True)),
-    "torque-hold": ("torque", _scripted("torque", hold=True)),
     "learned": ("position", _learned),
 }
 

@@ -1,5 +1,5 @@
 """Train the learned tracker: a stable-baselines3 policy (SAC, or PPO) that corrects the
-velocity-hold controller (``--control position``: position-hold), on ImitateVideo-v0
+velocity controller (``--control position``: the position controller), on ImitateVideo-v0
 behind the DON wrapper (``keep_frame=False``).
 
 One env per training scenario, vectorised; clip seeds below 1000 only (``--train-seeds``
@@ -69,8 +69,6 @@ class Args:
     """extra frames of estimate history in the policy's features (TrackerFeatures)"""
     rate_history: int = 12
     """frames of past estimated omega and trust in the policy's features (TrackerFeatures)"""
-    hold_until_moving: bool = True
-    """the scripted controller under the residual holds the start pose until DON moves"""
     net_arch: tuple[int, ...] = (128, 128)
     """hidden layers of the actor and the critics"""
     learning_rate: float = 1e-3
@@ -146,7 +144,7 @@ def make_env(scenario: str, seeds: tuple[int, ...], args: Args,
     env = gym.make("ImitateVideo-v0", scenario=scenario, control=args.control,
                    clip_seeds=seeds, **kwargs)
     return ResidualTracking(DONObservation(env, keep_frame=False), args.residual_scale,
-                            reward_scale, args.hold_until_moving, args.history,
+                            reward_scale, args.history,
                             args.rate_history)
 
 
@@ -289,7 +287,6 @@ def main() -> None:
         "net_arch": list(args.net_arch),
         "residual_scale": args.residual_scale,
         "reward_scales": scales,
-        "hold_until_moving": args.hold_until_moving,
         "history_frames": args.history,
         "rate_history_frames": args.rate_history,
         "control": args.control,

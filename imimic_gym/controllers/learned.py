@@ -140,14 +140,13 @@ class _Residual:
     """The scripted controller's action (for the env's control mode) plus ``scale`` times
     the policy's action."""
 
-    def __init__(self, env: gym.Env, scale: float, hold_until_moving: bool,
-                 history: int = 0, rate_history: int = 0,
+    def __init__(self, env: gym.Env, scale: float, history: int = 0, rate_history: int = 0,
                  version: int = FEATURES_VERSION) -> None:
         control = env.unwrapped.control
         if control not in ("position", "velocity"):
             raise ValueError("the learned tracker corrects the position or velocity "
                              f"controller; this env has control={control!r}")
-        self.base = SCRIPTED_CONTROLLERS[control](env, hold_until_moving=hold_until_moving)
+        self.base = SCRIPTED_CONTROLLERS[control](env)
         self.features, self.scale = TrackerFeatures(env, history, rate_history,
                                                       version), scale
 
@@ -164,26 +163,23 @@ class ResidualTracking(gym.Wrapper, gym.utils.RecordConstructorArgs):
     """Training view of an estimator-wrapped ImitateVideo env (``control="position"`` or
     ``"velocity"``): observations are `TrackerFeatures`, actions in [-1, 1] are residuals
     added (times ``residual_scale``) to the scripted controller's normalised action for
-    that control mode (holding the start pose until the estimate moves if
-    ``hold_until_moving``). The reward is the env's
+    that control mode (which holds the start pose until the estimator's first reading).
+    The reward is the env's
     times ``reward_scale`` (its truth stays in the reward and in ``info``, never in
     observations).
     """
 
     def __init__(self, env: gym.Env, residual_scale: float = 0.5, reward_scale: float = 1.0,
-                 hold_until_moving: bool = True, history: int = 0,
-                 rate_history: int = 0) -> None:
+                 history: int = 0, rate_history: int = 0) -> None:
         gym.utils.RecordConstructorArgs.__init__(self, residual_scale=residual_scale,
                                                  reward_scale=reward_scale,
-                                                 hold_until_moving=hold_until_moving,
                                                  history=history, rate_history=rate_history)
         gym.Wrapper.__init__(self, env)
         if not isinstance(env.observation_space, spaces.Dict) or (
                 "estimate" not in env.observation_space.spaces):
             raise TypeError("ResidualTracking needs an estimator wrapper's obs['estimate'] "
                             f"(e.g. DONObservation), got {env.observation_space}")
-        self.residual = _Residual(env, residual_scale, hold_until_moving, history,
-                                  rate_history)
+        self.residual = _Residual(env, residual_scale, history, rate_history)
         self.reward_scale = reward_scale
         self.observation_space = self.residual.features.space
         self.action_space = spaces.Box(-1.0, 1.0, shape=env.action_space.shape, dtype=np.float32)
@@ -273,7 +269,6 @@ class LearnedController:
             raise ValueError(f"LearnedController drives control={control!r} actuation; this "
                              f"env has control={env.unwrapped.control!r}")
         self.residual = _Residual(env, float(self.metadata["residual_scale"]),
-                                  bool(self.metadata["hold_until_moving"]),
                                   int(self.metadata.get("history_frames", 0)),
                                   int(self.metadata.get("rate_history_frames", 0)), version)
         if self.metadata["observation_size"] != self.residual.features.size:

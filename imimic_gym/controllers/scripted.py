@@ -56,28 +56,25 @@ class EstimateTarget:
     The estimate describes the frame the env shows; the reward compares the robot with
     the next one. Leading the angle by omega / fps (one frame) removes that frame of lag.
 
-    ``hold_until_moving``: a frame-differencing estimator knows nothing until the arm
-    moves, and meanwhile repeats its first guess (DON: the middle of the joint range),
-    while the robot starts where the arm is. Trusting that guess drives the robot away
-    and back. With the option on, the target is the robot's first observed pose (at
-    rest) until the estimate first changes; everything it uses is in the observation.
+    Until the estimator has read the arm at all (its trust is still 0: a frame-
+    differencing estimator sees nothing before the arm moves, and meanwhile reports a
+    placeholder, the middle of the joint range) the target is the robot's first observed
+    pose, at rest: the robot starts where the arm is, and chasing the placeholder would
+    drive it away and back. Everything this uses is in the observation.
     """
 
-    def __init__(self, env: gym.Env, lead_frames: float = 1.0,
-                 hold_until_moving: bool = False) -> None:
+    def __init__(self, env: gym.Env, lead_frames: float = 1.0) -> None:
         from imimic_gym.wrappers.estimator import estimate_fields
 
         inner = env.unwrapped
         self.fields = estimate_fields(inner.arm.n_links)
         self.lead_s = lead_frames / float(inner.clip.fps)
-        self.hold_until_moving = hold_until_moving
         self.reset()
 
     def reset(self) -> None:
-        """Forget the episode's first estimate and pose."""
-        self._first: np.ndarray | None = None
+        """Forget the episode's start pose: wait for the estimator's first reading."""
         self._start: np.ndarray | None = None
-        self._holding = self.hold_until_moving
+        self._read = False
 
     def reference(self, obs: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The led target: angles (rad), omega (rad/s) and alpha (rad/s^2), each (n,).
@@ -88,13 +85,12 @@ class EstimateTarget:
         estimate = obs["estimate"]
         angles, omega, alpha = (estimate[self.fields[k]].astype(np.float64)
                                 for k in ("angles", "omega", "alpha"))
-        if self._holding:
-            if self._first is None:
-                self._first = angles
+        if not self._read:
+            if self._start is None:
                 self._start = np.asarray(obs["qpos"], dtype=np.float64).copy()
-            if np.array_equal(angles, self._first):
+            if estimate[self.fields["trust"]][0] <= 0.0:
                 return self._start.copy(), np.zeros_like(omega), np.zeros_like(alpha)
-            self._holding = False
+            self._read = True
         return angles + self.lead_s * omega, omega + self.lead_s * alpha, alpha
 
     def __call__(self, obs: dict[str, Any]) -> np.ndarray:
@@ -171,14 +167,13 @@ def _require_control(env: gym.Env, control: str, name: str) -> None:
                          f"control={env.unwrapped.control!r}")
 
 
-def PositionController(env: gym.Env, lead_frames: float = 1.0,
-                       hold_until_moving: bool = False) -> PDController:
+def PositionController(env: gym.Env, lead_frames: float = 1.0) -> PDController:
     """The paper's setting: the servo's target is the estimated angle (led by one frame of
     the estimated omega), and the servo closes the loop itself. Needs
-    ``control="position"`` and an estimator wrapper's ``obs["estimate"]``;
-    ``hold_until_moving`` as in `EstimateTarget`."""
+    ``control="position"`` and an estimator wrapper's ``obs["estimate"]``; holds the
+    start pose until the estimator's first reading (`EstimateTarget`)."""
     _require_control(env, "position", "PositionController")
-    return PDController(env, EstimateTarget(env, lead_frames, hold_until_moving))
+    return PDController(env, EstimateTarget(env, lead_frames))
 
 
 class VelocityController(PDController):
@@ -193,10 +188,10 @@ class VelocityController(PDController):
     then runs a frame ahead of the arm).
     """
 
-    def __init__(self, env: gym.Env, bandwidth_hz: float = 4.0, lead_frames: float = 0.0,
-                 hold_until_moving: bool = False) -> None:
+    def __init__(self, env: gym.Env, bandwidth_hz: float = 4.0,
+                 lead_frames: float = 0.0) -> None:
         _require_control(env, "velocity", "VelocityController")
-        self.reference = EstimateTarget(env, lead_frames, hold_until_moving)
+        self.reference = EstimateTarget(env, lead_frames)
         super().__init__(env, self.reference, bandwidth_hz=bandwidth_hz)
 
     def __call__(self, obs: dict[str, Any]) -> np.ndarray:
@@ -218,9 +213,9 @@ class TorqueController(PDController):
     """
 
     def __init__(self, env: gym.Env, bandwidth_hz: float = 4.0, lead_frames: float = 0.0,
-                 alpha_feedforward: float = 1.0, hold_until_moving: bool = False) -> None:
+                 alpha_feedforward: float = 1.0) -> None:
         _require_control(env, "torque", "TorqueController")
-        self.reference = EstimateTarget(env, lead_frames, hold_until_moving)
+        self.reference = EstimateTarget(env, lead_frames)
         self.alpha_feedforward = alpha_feedforward
         super().__init__(env, self.reference, bandwidth_hz=bandwidth_hz)
 

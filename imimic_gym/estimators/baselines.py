@@ -10,7 +10,8 @@ is found, which is what the paper compared.
 - `CamShiftEstimator`: OpenCV's CamShift on a hue back-projection; the colour model is
   taken from the first region that moves, then tracked as a rotated rectangle.
 
-Neither has a trust factor or a prediction layer (the paper's point): ``trust`` is 1.
+Neither has a trust factor or a prediction layer (the paper's point): ``trust`` is 1
+once they have read the link, and 0 before, while the angle is only a placeholder.
 """
 
 from __future__ import annotations
@@ -57,17 +58,18 @@ class _MaskEstimator:
         self.path = PathEstimator(1, self.fps)
         self.angle: float | None = None
         start = self.reference_direction + (sum(self.joint_range) / 2 if self.joint_range else 0)
-        self.estimate = self._estimate(start, 0.0, 0.0)
+        self.estimate = self._estimate(start, 0.0, 0.0, trust=0.0)  # no reading yet
 
     def _mask(self, image: np.ndarray) -> np.ndarray:
         raise NotImplementedError
 
-    def _estimate(self, angle: float, omega: float, alpha: float) -> Estimate:
+    def _estimate(self, angle: float, omega: float, alpha: float,
+                  trust: float = 1.0) -> Estimate:
         angles = np.array([float(wrap_angle(angle - self.reference_direction))])
         omegas, alphas = np.array([omega]), np.array([alpha])
         torque = (self.torque_model(angles, omegas, alphas) if self.torque_model is not None
                   else np.zeros(1))
-        return Estimate(angles=angles, omega=omegas, alpha=alphas, torque=torque, trust=1.0)
+        return Estimate(angles=angles, omega=omegas, alpha=alphas, torque=torque, trust=trust)
 
     def update(self, frame: np.ndarray) -> Estimate:
         """Take the next (H, W, 3) uint8 RGB frame; return the estimate for it."""
@@ -80,7 +82,7 @@ class _MaskEstimator:
         if pivot is None:
             guess = self.link.before_pivot(lines)
             if guess is not None:
-                self.estimate = self._estimate(guess, 0.0, 0.0)
+                self.estimate = self._estimate(guess[0], 0.0, 0.0)
             return self.estimate
         measured = self.link.measure(lines, pivot, self.angle)
         if measured is None:

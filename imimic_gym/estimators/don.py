@@ -34,7 +34,10 @@ Decisions where the paper is vague or inconsistent (each is also noted where it 
   neither time (`DON._slow_reading`).
 - Before the pivot is agreed: the link's direction about the last solve's pivot, while
   it waits for the next solve to agree; before any solve, the longest moving region's
-  axis.
+  axis. These guesses feed the path estimator too (a guess that jumps by `GUESS_JUMP`
+  restarts it), so omega does not wait for the pivot, and the trust factor, with the
+  guessed region's size as M_p. Before anything has moved, DON reports the middle of
+  the joint range with eta 0: a placeholder, not a reading.
 - Object regression, pivot and radius (`geometry.py`). The paper adds a line per link
   for n links; we fit one per moving region of l_1 (its principal axis) for one link
   too. The link turns about a pivot that never moves, so its regions lie along rays
@@ -62,7 +65,8 @@ Decisions where the paper is vague or inconsistent (each is also noted where it 
   deg with the layer on (threshold 0.3) against 21.6 off on `exp3-forearm-low`, 31.4
   against 31.7 on `exp3-forearm-high` (`benchmarks/don_dev_seeds.py --param
   trust_threshold=0.3`). A frame with no motion at all keeps the last estimate and eta
-  = 1 ("nothing to distrust"). Nothing here can produce NaN.
+  = 1 ("nothing to distrust"), once there is an estimate to keep. Nothing here can
+  produce NaN.
 """
 
 from __future__ import annotations
@@ -89,6 +93,12 @@ REACH_BACK_PX = 2.0
 # The fastest turn (rad/frame) read as motion: exp1-noisy-fast's arm peaks at 31 degrees a
 # frame at 30 fps.
 MAX_TURN = math.radians(45.0)
+# Before the pivot is agreed a guess is a region's axis, and the region it comes from can
+# change between frames: a guess this far (rad) from the last one starts the path afresh.
+# On development clips, 10 degrees kept the servo's gain from omega before the pivot
+# (velocity control 1.66 -> 1.13 deg) without the person scenarios' switches (none and
+# low within 0.1 deg; with no limit they lost 0.5).
+GUESS_JUMP = math.radians(10.0)
 # The prediction layer: the velocity kept from one predicted frame to the next, and how
 # small a share of the window's largest visible length makes a reading partial.
 COAST_DECAY, PARTIAL = 0.8, 0.6
@@ -287,10 +297,11 @@ class DON:
         self.hidden = False  # the link vanished while turning and has not been seen since
         self.missing = 0  # frames running without a reading of the link
         # Before the arm has moved DON has seen nothing: the middle of the joint's range
-        # (if known) is the guess least far from anywhere the arm can be.
+        # (if known) is the guess least far from anywhere the arm can be, and trust 0
+        # says it is no reading (a controller should not chase it).
         start = (self.reference_direction if self.joint_range is None
                  else self.reference_direction + sum(self.joint_range) / 2)
-        self.estimate = self._estimate(start, 0.0, 0.0, trust=1.0, predicted=False)
+        self.estimate = self._estimate(start, 0.0, 0.0, trust=0.0, predicted=False)
         self.last_mask: np.ndarray | None = None
         self.guess: float | None = None  # the last direction guessed before the pivot
 
@@ -407,15 +418,29 @@ class DON:
     def _before_pivot(self, lines: np.ndarray) -> Estimate:
         """The estimate until a pivot is agreed: the link's direction about the last
         solve's pivot where there is one (`PivotEstimator.provisional`), else the longest
-        moving region's axis (`LinkTracker.before_pivot`); else the last estimate."""
+        moving region's axis (`LinkTracker.before_pivot`); else the last estimate.
+
+        The guesses feed the path estimator, so omega and alpha do not wait for the
+        pivot (a guess GUESS_JUMP from the last restarts it), and the trust factor, with
+        M_p the reach from the provisional pivot or else the region's extent along its
+        axis: the paper's "size of the moving object". (Until this was measured, guesses
+        were reported with eta 1, however much of the link an occluder hid.) The first
+        reading about the agreed pivot starts the path afresh."""
         provisional = self.link.pivots.provisional()
         reading = (None if provisional is None
                    else self.link.measure(lines, provisional, self.guess))
-        guess = reading[0] if reading is not None else self.link.before_pivot(lines)
-        if guess is None:
+        if reading is None:
+            reading = self.link.before_pivot(lines)
+        self.sizes.append(None if reading is None else reading[1])
+        if reading is None:
             return self.estimate
+        guess = reading[0]
+        if self.guess is not None and abs(wrap_angle(guess - self.guess)) > GUESS_JUMP:
+            self.path.reset()
         self.guess = guess
-        return self._estimate(guess, 0.0, 0.0, trust=1.0, predicted=False)
+        self.path.update(np.array([guess]))
+        return self._estimate(guess, float(self.path.omega()[0]), float(self.path.alpha()[0]),
+                              trust=self.trust_factor(), predicted=False)
 
     def update(self, frame: np.ndarray) -> Estimate:
         """Take the next (H, W, 3) uint8 RGB frame; return the estimate for it."""
@@ -460,7 +485,7 @@ class DON:
         # DON layer 4a: path estimator on the measured location. A jump no arm makes in a
         # frame is the link found again after a wrong or lost reading: its difference is
         # no velocity, so the path starts afresh from here.
-        if self.angle is not None and abs(wrap_angle(location - self.angle)) > MAX_TURN:
+        if self.angle is None or abs(wrap_angle(location - self.angle)) > MAX_TURN:
             self.path.reset()
         self.path.update(np.array([location]))
         self.angle = location

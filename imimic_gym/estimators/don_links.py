@@ -205,12 +205,12 @@ class LinkedDON:
         self.root_joints: deque[np.ndarray] = deque(maxlen=LENGTH_MEMORY)
         self.fits = 0
         # Before anything moved: the middle of each joint's range, the guess least far
-        # from anywhere the arm can be.
+        # from anywhere the arm can be; trust 0, as it is no reading.
         self.q = self.joint_ranges.mean(axis=1)
         self.tracking = False
         self.path = PathEstimator(self.n, self.fps, self.window)
         self.sizes: deque[float | None] = deque(maxlen=self.window)
-        self.estimate = self._estimate(np.zeros(self.n), np.zeros(self.n), trust=1.0)
+        self.estimate = self._estimate(np.zeros(self.n), np.zeros(self.n), trust=0.0)
         self.last_mask: np.ndarray | None = None
 
     @property

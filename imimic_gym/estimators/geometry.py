@@ -96,10 +96,17 @@ class PivotEstimator:
     anything else (a distractor, a blob elongated along the motion) cross anywhere, so
     they spread out and do not move the mode.
 
-    It is solved every ``refresh`` new lines (the pivot does not move, and a solve over
-    all pairs of 40 lines costs as much as the rest of a frame). The first pivot is only
-    taken when two solves ``refresh`` lines apart agree within ``agree_px``: a pivot made
-    of a sweeping occluder's edges moves with the occluder, the real one stays put.
+    Until a first pivot is agreed it is solved every ``seek_every`` new lines, and taken
+    when two solves in a row agree within ``agree_px`` (a pivot made of a sweeping
+    occluder's edges moves with the occluder, the real one stays put). After that it is
+    re-solved every ``refine_every`` new lines: the pivot does not move, and a solve
+    over all pairs of 40 lines costs as much as the rest of a frame. Seeking every 3
+    lines rather than every 10 agrees a pivot sooner, and every frame before it is a
+    guess: on development clips settled RMSE 8.1 -> 5.9 deg on `exp3-forearm-none`, 15.1
+    -> 13.1 on `exp3-forearm-low`, 25.6 -> 22.6 on `exp3-forearm-high`, 0.59 -> 0.54 on
+    `exp2-servo`, at a cost of 22.3 -> 23.0 on `exp1-noisy-fast`
+    (`benchmarks/don_dev_seeds.py`). Requiring instead that a solve agree with one 10
+    lines older kept most of the delay (8.5 on `exp3-forearm-none` seeking every line).
 
     ``directions`` (middle, half-width), rad: where the link can point. A crossing only
     counts if both regions lie, seen from it, within that fan: the link's own regions
@@ -119,12 +126,14 @@ class PivotEstimator:
     the link's short slivers, and the median of all crossings lay between the clusters.
     """
 
-    def __init__(self, memory: int = 40, refresh: int = 10, agree_px: float = 4.0,
+    def __init__(self, memory: int = 40, seek_every: int = 3, refine_every: int = 20,
+                 agree_px: float = 4.0,
                  directions: tuple[float, float] | None = None,
                  reach_back: float | None = None) -> None:
         self.directions, self.reach_back = directions, reach_back
         self.lines: deque[np.ndarray] = deque(maxlen=memory)
-        self.refresh, self.agree_px = refresh, agree_px
+        self.seek_every, self.refine_every = seek_every, refine_every
+        self.agree_px = agree_px
         self._new, self._stale = 0, False
         self._last: np.ndarray | None = None
         self._candidate: np.ndarray | None = None
@@ -133,8 +142,7 @@ class PivotEstimator:
         """``line``: a row of `component_lines` (centre, direction, length, elongation)."""
         self.lines.append(line)
         self._new += 1
-        # Once agreed the pivot only gets refined: half as often.
-        if self._new >= (self.refresh if self._last is None else 2 * self.refresh):
+        if self._new >= (self.seek_every if self._last is None else self.refine_every):
             self._stale, self._new = True, 0
 
     def provisional(self) -> np.ndarray | None:
@@ -390,9 +398,10 @@ class LinkTracker:
         self.radius = reach if self.radius is None else 0.9 * self.radius + 0.1 * reach
         return mean, reach
 
-    def before_pivot(self, lines: np.ndarray) -> float | None:
+    def before_pivot(self, lines: np.ndarray) -> tuple[float, float] | None:
         """Until the pivot is found: the longest elongated region's axis (rad), pointed
-        by the joint range; None without a range or such a region."""
+        by the joint range, and that region's extent along it (px, as `measure`'s reach:
+        3.4 standard deviations); None without a range or such a region."""
         if self.joint_range is None or len(lines) == 0:
             return None
         candidates = lines[(lines[:, 5] > 2.0) & (lines[:, 4] > 2.5) & ~self._sliding(lines)]
@@ -403,7 +412,7 @@ class LinkTracker:
         middle, _ = self.directions
         if abs(wrap_angle(axis - middle)) > math.pi / 2:
             axis += math.pi
-        return float(wrap_angle(axis))
+        return float(wrap_angle(axis)), 3.4 * float(line[4])
 
     def reach_box(self) -> tuple[slice, slice]:
         """Row and column slices (working px) of the square around the pivot that the

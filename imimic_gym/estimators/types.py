@@ -20,7 +20,8 @@ class Estimate:
         omega: (n,) angular velocities, rad/s.
         alpha: (n,) angular accelerations, rad/s^2.
         torque: (n,) joint torques the robot needs for this motion, N m.
-        trust: the trust factor eta in [0, 1] (1 = nothing to distrust).
+        trust: the trust factor eta in [0, 1] (1 = nothing to distrust). 0 also before
+            the estimator has read anything: the angles are then a placeholder.
         predicted: True when the prediction layer, not the current frame, gave the angles.
         keypoints: (n + 1, 2) pixel coordinates (x, y) of the pivot and link ends, or None.
     """

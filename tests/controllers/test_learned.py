@@ -53,9 +53,8 @@ def test_residual_training_env_passes_both_checkers() -> None:
 @pytest.mark.parametrize("control", ["position", "velocity"])
 def test_the_untrained_residual_is_the_scripted_controller(control: str) -> None:
     env = don_env(control=control, n_frames=30, clip_seeds=(100,))
-    reference = run_episode(env, SCRIPTED_CONTROLLERS[control](env, hold_until_moving=True),
-                            seed=0)
-    wrapped = ResidualTracking(env, hold_until_moving=True)
+    reference = run_episode(env, SCRIPTED_CONTROLLERS[control](env), seed=0)
+    wrapped = ResidualTracking(env)
     wrapped.reset(seed=0)
     robot = [wrapped.unwrapped.data.qpos.copy()]
     for _ in range(29):

@@ -64,18 +64,20 @@ def test_each_scripted_controller_tracks_a_known_target(control: str, bound_deg:
     assert abs(metrics["lag_frames"]) <= 1
 
 
-def test_holding_until_don_sees_the_arm_keeps_the_robot_on_the_servo() -> None:
-    # Clip 100: DON's first guess (the middle of the range) is 34 degrees off for four
-    # frames; the plain servo chases it, the holding one waits for DON to lock on.
-    from imimic_gym.wrappers import DONObservation
+def test_the_servo_waits_for_dons_first_reading() -> None:
+    # Clip 100: DON's placeholder (the middle of the range, trust 0) is 34 degrees off
+    # for four frames. Chasing it drives the robot away and back (RMSE above 2.5 deg);
+    # waiting for DON's first reading keeps the robot on the arm.
+    from imimic_gym.wrappers import DONObservation, estimate_fields
 
     env = DONObservation(gym.make("ImitateVideo-v0", scenario="exp2-servo",
                                   clip_seeds=(100,)), keep_frame=False)
-    plain = run_episode(env, PositionController(env), seed=0).metrics()
-    holding = run_episode(env, PositionController(env, hold_until_moving=True), seed=0)
-    assert holding.metrics()["rmse_deg"] < 2.5 < plain["rmse_deg"]
-    assert np.degrees(abs(holding.robot[3, 0] - holding.target[3, 0])) < 3.0
-    assert 0.0 < plain["mean_trust"] <= 1.0
+    obs, _ = env.reset(seed=0)
+    assert obs["estimate"][estimate_fields(1)["trust"]][0] == 0.0
+    rollout = run_episode(env, PositionController(env), seed=0)
+    assert rollout.metrics()["rmse_deg"] < 2.5
+    assert np.degrees(abs(rollout.robot[3, 0] - rollout.target[3, 0])) < 3.0
+    assert 0.0 < rollout.metrics()["mean_trust"] <= 1.0
 
 
 def test_computed_torque_uses_the_estimated_acceleration() -> None:

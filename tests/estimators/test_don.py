@@ -63,6 +63,43 @@ def test_a_known_pivot_is_used_from_the_first_moving_frame() -> None:
     assert abs(math.degrees(estimates[5].angles[0] - angles[5])) < 2.0
 
 
+def before_the_pivot(don: DON, frames: list[np.ndarray]) -> list:
+    """DON's estimates for ``frames`` up to the frame its pivot is agreed."""
+    don.reset()
+    estimates = []
+    for frame in frames:
+        estimates.append(don.update(frame))
+        if don.link.pivot() is not None:
+            return estimates[:-1]
+    return estimates
+
+
+def test_omega_does_not_wait_for_the_pivot() -> None:
+    # Until the pivot of a bar turning 3 degrees a frame is agreed, the guesses' own
+    # path gives omega (it stayed 0 while they were not fed to it).
+    estimates = before_the_pivot(DON(fps=FPS, joint_range=(0.0, math.pi)),
+                                 [bar_frame(a) for a in sweep(3.0, 20)])
+    assert len(estimates) >= 10
+    assert estimates[0].trust == 0.0  # the placeholder, before anything moved
+    omegas = [math.degrees(e.omega[0]) for e in estimates[3:]]
+    assert np.median(omegas) == pytest.approx(3.0 * FPS, rel=0.1)
+
+
+def test_eta_sees_an_occluder_before_the_pivot_is_agreed() -> None:
+    # From frame 6 only the inner 55 px of the 100 px bar are visible; until the pivot
+    # is agreed, eta comes from the guessed regions' sizes.
+    frames = [bar_frame(a) for a in sweep(3.0, 20)]
+    outside = np.ones((H, W), dtype=np.uint8)
+    cv2.circle(outside, tuple(PIVOT.astype(int)), 55, 0, -1)
+    for frame in frames[6:]:
+        frame[outside == 1] = 0
+    trust = [e.trust for e in before_the_pivot(DON(fps=FPS, joint_range=(0.0, math.pi)),
+                                                frames)]
+    assert len(trust) >= 12
+    assert min(trust[1:6]) > 0.9
+    assert 0.45 < min(trust[8:]) and max(trust[8:]) < 0.7
+
+
 def test_reference_direction_is_subtracted() -> None:
     angles = sweep(3.0, 40, start_deg=60)
     plain = DON(fps=FPS, pivot=tuple(PIVOT)).run(bar_frame(a) for a in angles)
@@ -80,7 +117,8 @@ def test_still_black_and_short_inputs_give_defined_estimates() -> None:
                 values = np.concatenate([estimate.angles, estimate.omega, estimate.alpha,
                                          estimate.torque, [estimate.trust]])
                 assert np.all(np.isfinite(values))
-                assert estimate.trust == 1.0 and not estimate.predicted
+                # Nothing ever moved: no reading, so trust 0 (a placeholder angle).
+                assert estimate.trust == 0.0 and not estimate.predicted
 
 
 @pytest.mark.parametrize(("visible", "low", "high"),

@@ -75,8 +75,8 @@ def test_no_motion_black_frames_and_short_clips_give_finite_estimates() -> None:
         estimates = don.run(frames)
         assert len(estimates) == len(frames)
         for e in estimates:
-            assert np.all(np.isfinite(e.as_vector())) and e.trust == 1.0
-            # Nothing seen: the middle of each joint's range, at rest.
+            assert np.all(np.isfinite(e.as_vector())) and e.trust == 0.0
+            # Nothing seen: the middle of each joint's range, at rest, trust 0.
             assert e.angles.tolist() == pytest.approx([0.8, 0.8, 0.0])
             assert e.omega.tolist() == [0.0, 0.0, 0.0]
 
