@@ -34,21 +34,30 @@ def estimate_fields(n: int) -> dict[str, slice]:
     return fields
 
 
-def draw_estimate(picture: np.ndarray, estimate: Estimate) -> np.ndarray:
+def draw_estimate(picture: np.ndarray, estimate: Estimate,
+                  parents: tuple[int, ...] | None = None) -> np.ndarray:
     """A copy of ``picture`` (H, W', 3) uint8 RGB with ``estimate`` drawn on it: its
-    keypoints (input pixels, (x, y)) joined as links in yellow, a dot at each joint, and a
-    line of text with the angles (deg) and eta; cyan text while the prediction layer
-    speaks for the frame."""
+    keypoints (input pixels, (x, y): the root pivot, then each link's tip) joined as links
+    in yellow, a dot at each joint, and a line of text with the angles (deg) and eta;
+    cyan text while the prediction layer speaks for the frame.
+
+    ``parents``: each link's parent link (-1: the root pivot), as `ArmSpec.link_parents`;
+    None for a chain. A link is drawn from its parent's tip, so the hand's thumb and index
+    finger both start at the wrist."""
     import cv2
 
     out = picture.copy()
     size = max(1.0, picture.shape[0] / 240)  # drawn the same at any resolution
     line, dot = max(2, round(2 * size)), max(4, round(4 * size))
     if estimate.keypoints is not None:
-        points = np.rint(np.asarray(estimate.keypoints)).astype(np.int32)
-        cv2.polylines(out, [points.reshape(-1, 1, 2)], False, (255, 220, 0), line, cv2.LINE_AA)
-        for x, y in points[:-1]:
-            cv2.circle(out, (int(x), int(y)), dot, (255, 220, 0), -1, cv2.LINE_AA)
+        points = [(int(x), int(y)) for x, y in np.rint(estimate.keypoints).astype(np.int32)]
+        n = len(points) - 1
+        links = parents if parents is not None else tuple(range(-1, n - 1))
+        for link, parent in enumerate(links[:n]):
+            cv2.line(out, points[parent + 1], points[link + 1], (255, 220, 0), line,
+                     cv2.LINE_AA)
+        for joint in {0, *(parent + 1 for parent in links[:n] if parent >= 0)}:
+            cv2.circle(out, points[joint], dot, (255, 220, 0), -1, cv2.LINE_AA)
     angles = " ".join(f"{np.degrees(q):+.0f}" for q in estimate.angles)
     text = f"estimate {angles} deg  eta {estimate.trust:.2f}"
     colour = (0, 230, 255) if estimate.predicted else (255, 220, 0)
@@ -110,7 +119,8 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
         picture = self.env.render()
         if picture is None or self.last_estimate is None:
             return picture
-        return draw_estimate(picture, self.last_estimate)
+        return draw_estimate(picture, self.last_estimate,
+                             self.env.unwrapped.arm.link_parents)
 
     def observation(self, observation: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         self.last_estimate = self.estimator.update(observation["frame"])

@@ -7,9 +7,15 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import imimic_gym  # noqa: F401
 from imimic_gym.controllers import EstimateTarget, PDController
+from imimic_gym.estimators.types import Estimate
 from imimic_gym.metrics import angle_rmse_deg
 from imimic_gym.rollout import run_episode
-from imimic_gym.wrappers import DONObservation, EstimatorObservation, estimate_fields
+from imimic_gym.wrappers import (
+    DONObservation,
+    EstimatorObservation,
+    draw_estimate,
+    estimate_fields,
+)
 
 
 def servo_env(**kwargs) -> gym.Env:
@@ -91,3 +97,22 @@ def test_don_wrapper_follows_several_links() -> None:
     obs, _ = env.reset(seed=0)
     assert env.observation_space["estimate"].shape == (10,)
     assert obs["estimate"].shape == (10,) and np.all(np.isfinite(obs["estimate"]))
+
+
+def test_a_tree_is_drawn_from_each_links_parent() -> None:
+    # The hand: forearm from the elbow (0) to the wrist (1); thumb (2) and index (3) both
+    # start at the wrist. Nothing joins the two fingertips.
+    keypoints = np.array([[40.0, 200.0], [160.0, 120.0], [220.0, 60.0], [280.0, 140.0]])
+    estimate = Estimate(angles=np.zeros(3), omega=np.zeros(3), alpha=np.zeros(3),
+                        torque=np.zeros(3), trust=1.0, keypoints=keypoints)
+    picture = draw_estimate(np.zeros((240, 320, 3), np.uint8), estimate, parents=(-1, 0, 0))
+
+    def drawn(a: int, b: int) -> bool:
+        x, y = np.rint((keypoints[a] + keypoints[b]) / 2).astype(int)
+        return bool(picture[y, x].any())
+
+    assert drawn(0, 1) and drawn(1, 2) and drawn(1, 3)
+    assert not drawn(2, 3)
+    chain = draw_estimate(np.zeros((240, 320, 3), np.uint8), estimate)
+    x, y = np.rint((keypoints[2] + keypoints[3]) / 2).astype(int)
+    assert chain[y, x].any()  # without parents: a chain, tip to tip
