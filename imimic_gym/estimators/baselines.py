@@ -76,7 +76,7 @@ class _MaskEstimator:
         image = self.frames(frame)
         if self.link is None:
             self.link = LinkTracker(self.reference_direction, None, self.joint_range,
-                                    self.min_area)
+                                    self.min_area, seek_every=10)
         lines = self.link.lines(self._mask(image))
         pivot = self.link.pivot()
         if pivot is None:
