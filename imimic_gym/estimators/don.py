@@ -61,9 +61,9 @@ Decisions where the paper is vague or inconsistent (each is also noted where it 
   within a few frames of an occlusion, even capped at the largest v and a seen (tried
   on development clips; it was worse than no prediction at all). Eq. (VAPr)'s recursion
   is kept with the acceleration set to brake the arm, a = -(1 - COAST_DECAY) v, so v
-  shrinks by COAST_DECAY a frame: on the occluded frames of development clips, 20.9
-  deg with the layer on (threshold 0.3) against 21.6 off on `exp3-forearm-low`, 31.4
-  against 31.7 on `exp3-forearm-high` (`benchmarks/don_dev_seeds.py --param
+  shrinks by COAST_DECAY a frame: on the occluded frames of development clips, 17.8
+  deg with the layer on (threshold 0.3) against 18.7 off on `exp3-forearm-low`, 27.9
+  against 28.9 on `exp3-forearm-high` (`benchmarks/don_dev_seeds.py --param
   trust_threshold=0.3`). A frame with no motion at all keeps the last estimate and eta
   = 1 ("nothing to distrust"), once there is an estimate to keep. Nothing here can
   produce NaN.
