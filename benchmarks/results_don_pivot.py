@@ -3,9 +3,19 @@
 
 from __future__ import annotations
 
+STATES = ("before pivot", "hidden", "missing", "reading")
+
 
 def render(load, table) -> str:
     data = load("don_known_pivot")
+    sources = load("don_error_sources")
+    error_rows = []
+    for r in sources["results"]:
+        cells = [f"{c['frames']}; {100 * c['share_of_squared_error']:.0f}%"
+                 if (c := r["states"].get(s)) else "-" for s in STATES]
+        error_rows.append([f"`{r['scenario']}`", *cells])
+    hidden = next(r for r in sources["results"]
+                  if r["scenario"] == "exp3-forearm-high")["states"]["hidden"]
     rows = []
     for r in data["results"]:
         m = r["mean"]
@@ -51,4 +61,25 @@ def render(load, table) -> str:
   `exp1-noisy-fast`). The guesses also feed the path estimator (omega no longer waits
   for the pivot) and the trust factor, with the guessed region's size as M_p (they
   were reported with eta 1 however much an occluder hid); and before its first reading
-  DON reports eta 0, its angle then being a placeholder."""
+  DON reports eta 0, its angle then being a placeholder. Tried in that round and not
+  kept: agreeing only with a solve 10 lines older (kept most of the delay); a
+  long-memory full length as an extra M_p (no change in eta); calling a link hidden
+  only when two of its last three frames turned fast, or when their mean did (eta no
+  longer fell from low to high occlusion, and `exp3-forearm-none` got worse); the slow
+  reading while hidden (worse on all three person scenarios, as before); omega as the
+  last v alone instead of the mean of two (worse on `exp3-forearm-none` and `default`);
+  keeping guesses before the pivot inside the joint range (no change: the ranges are
+  wide).
+
+  Where the rest of the error is, on development clips 0-{sources['seeds'] - 1} (command:
+  `.venv/bin/python benchmarks/don_error_sources.py --json
+  benchmarks/results/don_error_sources.json`; share of the squared error by DON's state
+  in the frame):
+
+{table(["scenario", *(f"{s} (frames; share)" for s in STATES)], error_rows)}
+
+  Where DON holds a link it has called hidden it is often not occluded at all (on
+  `exp3-forearm-high` {hidden['not_occluded_frames']} of {hidden['frames']} hidden frames). Seen frame by frame on a few clips (the
+  `imimic demo` clip among them), that is an arm turning slowly after one noisy reading
+  that looked like a fast turn: the held angle stays wrong until the link moves enough
+  to be read again."""

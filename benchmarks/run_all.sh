@@ -17,6 +17,7 @@ mkdir -p benchmarks/results
     exp3-forearm-high exp1-noisy-fast --estimator don \
     --episodes 10 --modality depth --json benchmarks/results/eval_depth.json
 "$BIN/python" benchmarks/don_known_pivot.py --json benchmarks/results/don_known_pivot.json
+"$BIN/python" benchmarks/don_error_sources.py --json benchmarks/results/don_error_sources.json
 # Real footage (issue 6): skipped with a message when ../shared/realdata is absent.
 "$BIN/python" benchmarks/real_footage.py --json benchmarks/results/real_footage.json
 # CNN + refiner (issue 4): shipped checkpoints, learning curve, real photos, eval, speed.
