@@ -66,7 +66,8 @@ def render(load, table) -> str:
   long-memory full length as an extra M_p (no change in eta); calling a link hidden
   only when two of its last three frames turned fast, or when their mean did (eta no
   longer fell from low to high occlusion, and `exp3-forearm-none` got worse); the slow
-  reading while hidden (worse on all three person scenarios, as before); omega as the
+  reading while hidden (worse on all three person scenarios, as before; even kept only
+  near the held angle, worse on `exp3-forearm-none` and `exp1-noisy-fast`); omega as the
   last v alone instead of the mean of two (worse on `exp3-forearm-none` and `default`);
   keeping guesses before the pivot inside the joint range (no change: the ranges are
   wide).
