@@ -38,6 +38,13 @@ def main() -> None:
     def ev(scenario: str, estimator: str, key: str = "rmse_deg_settled") -> float:
         return mean[(scenario, estimator)]["mean"][key]
 
+    def narrow_eta() -> str:
+        gaps = [ev(a, "don", "mean_trust") - ev(b, "don", "mean_trust")
+                for a, b in (("exp3-forearm-none", "exp3-forearm-low"),
+                             ("exp3-forearm-low", "exp3-forearm-high"))]
+        return (f" (a narrow margin: {min(gaps):.3f} at the smaller step)"
+                if 0 < min(gaps) < 0.05 else "")
+
     def per_clip(scenario: str, estimator: str) -> str:
         rows = mean[(scenario, estimator)]["rows"]
         return ", ".join(f"{r['rmse_deg_settled']:.1f}" for r in rows)
@@ -254,7 +261,7 @@ Against issue 3's acceptance:
   {per_clip('exp3-forearm-high', 'don')}).
 {render_don_pivot(load, table)}
 - Trust factor strictly decreasing from none to low to high occlusion:
-  {verdict(ev('exp3-forearm-none', 'don', 'mean_trust') > ev('exp3-forearm-low', 'don', 'mean_trust') > ev('exp3-forearm-high', 'don', 'mean_trust'))}; mean eta {ev('exp3-forearm-none', 'don', 'mean_trust'):.2f}, {ev('exp3-forearm-low', 'don', 'mean_trust'):.2f}, {ev('exp3-forearm-high', 'don', 'mean_trust'):.2f}. eta is the paper's formula with M_p
+  {verdict(ev('exp3-forearm-none', 'don', 'mean_trust') > ev('exp3-forearm-low', 'don', 'mean_trust') > ev('exp3-forearm-high', 'don', 'mean_trust'))}; mean eta {ev('exp3-forearm-none', 'don', 'mean_trust'):.2f}, {ev('exp3-forearm-low', 'don', 'mean_trust'):.2f}, {ev('exp3-forearm-high', 'don', 'mean_trust'):.2f}{narrow_eta()}. eta is the paper's formula with M_p
   the link's visible length (how far from the pivot its moving regions reach; a link
   missing for two frames or more after turning fast counts as 0 until it is seen again,
   so a long occlusion keeps eta at 0 rather than drifting back to 1 once the last
