@@ -62,7 +62,7 @@ class Args:
     position or velocity"""
     residual_scale: float = 1.0
     """the policy's action, times this, is added to the scripted controller's action"""
-    reward_balance: float = 0.9
+    reward_balance: float = 1.0
     """each scenario's reward is divided by the scripted controller's mean squared error
     there to this power: 1 weighs scenarios by relative improvement, 0 by raw error"""
     history: int = 6
@@ -81,9 +81,9 @@ class Args:
     """SAC: gradient updates per vectorised env step (one step of every env)"""
     learning_starts: int = 2_000
     """SAC: env steps with uniformly random residuals (exploration) before the first update"""
-    seed: int = 1
-    """seeds torch, numpy, random and the envs (1: the shipped policy's; seed 0 came out
-    behind it on the validation clips, benchmarks/RESULTS.md)"""
+    seed: int = 0
+    """seeds torch, numpy, random and the envs (0, with reward balance 1: the shipped
+    policy's; benchmarks/RESULTS.md lists the candidates it was chosen from)"""
     threads: int = 1
     """torch threads (the machine is shared; 1 is as fast for these small nets)"""
     out: str = str(ROOT / "checkpoints" / "tracker.pt")
