@@ -406,8 +406,9 @@ class LinkTracker:
 
     def before_pivot(self, lines: np.ndarray) -> tuple[float, float] | None:
         """Until the pivot is found: the longest elongated region's axis (rad), pointed
-        by the joint range, and that region's extent along it (px, as `measure`'s reach:
-        3.4 standard deviations); None without a range or such a region."""
+        by the joint range, and that region's extent along it (px: 3.4 standard
+        deviations, the span `measure` takes a region to cover); None without a range or
+        such a region."""
         if self.joint_range is None or len(lines) == 0:
             return None
         candidates = lines[(lines[:, 5] > 2.0) & (lines[:, 4] > 2.5) & ~self._sliding(lines)]
