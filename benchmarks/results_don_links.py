@@ -59,6 +59,7 @@ The fit scores hundreds of candidate poses against a few hundred moving pixels e
 frame, where the one-link DON fits a line to each moving region once: {low:.0f} to
 {high:.0f} times slower; the slowest, {slowest:.1f} ms, is {within} a 30 fps frame's 33 ms.
 """
+    shoulder = _shoulder_given()
     first, episodes = results[0]["first_seed"], results[0]["episodes"]
     worst_clip = max(row["rmse_deg_settled"] for r in results if r["scenario"] == "chain-2"
                      for row in r["rows"])
@@ -85,8 +86,40 @@ barely differs from the blue-grey checks behind it, so while it turns slowly the
 placed mostly by the forearm's pixels, and there a pixel of upper-arm length is degrees;
 the first second goes on finding the pivot and the lengths, and some clips lock onto a
 wrong pose for a while before a search over the whole ranges recovers it (the
-`chain-2` clip at {worst_clip:.1f} degrees above). Even with the true shoulder and true
-lengths given, the best-explaining polyline was a few degrees off on tuning clips: the
-moving pixels of a slowly turning link lie mostly on one side of it, where the checks
-behind it contrast more.
-{speed}"""
+`chain-2` clip at {worst_clip:.1f} degrees above).
+{shoulder}{speed}"""
+
+
+def _shoulder_given() -> str:
+    """Markdown: `chain-2` with the shoulder found and given (don_known_pivot.json)."""
+    path = RESULTS / "don_known_pivot.json"
+    chains = json.loads(path.read_text()).get("chains", []) if path.exists() else []
+    chain = next((r for r in chains if r["scenario"] == "chain-2"), None)
+    if chain is None:
+        return ""
+    m = chain["mean"]
+    rows = [f"| {how} | " + " | ".join(f"{rmse:.1f} ({bias:+.1f})" for rmse, bias in
+                                         zip(m[key]["rmse_deg_settled"],
+                                             m[key]["mean_error_deg"], strict=True)) + " |"
+            for how, key in (("found (as above)", "pivot_found"),
+                             ("given (the true shoulder)", "pivot_given"))]
+    given = m["pivot_given"]
+    return f"""
+The shoulder given. Command: `.venv/bin/python benchmarks/don_known_pivot.py --json
+benchmarks/results/don_known_pivot.json` (the same held-out clips; the found shoulder
+lies {m['pivot_error_px_median']:.0f} input px from the true one, median). Settled RMSE per
+joint, deg, with the mean signed error (estimate minus truth) in brackets:
+
+| shoulder | shoulder joint | elbow joint |
+|---|---|---|
+{chr(10).join(rows)}
+
+With the true shoulder both joints stay above {ACCEPT_DEG:.0f} degrees, and their signed
+errors are about equal and opposite ({given['mean_error_deg'][0]:+.1f} and
+{given['mean_error_deg'][1]:+.1f}): the forearm's direction in the image is right, the
+elbow point on it is not. The fit places the elbow where the forearm's line meets the
+upper arm's circle. A likely cause, not measured yet: the moving pixels of a slowly
+turning link lie mostly on one side of it, where the checks behind it contrast more, so
+that line runs beside the forearm rather than along it, and near a straight elbow a
+small sideways offset there moves the elbow point a long way.
+"""
