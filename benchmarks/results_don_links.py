@@ -116,10 +116,8 @@ joint, deg, with the mean signed error (estimate minus truth) in brackets:
 
 With the true shoulder both joints stay above {ACCEPT_DEG:.0f} degrees, and their signed
 errors are about equal and opposite ({given['mean_error_deg'][0]:+.1f} and
-{given['mean_error_deg'][1]:+.1f}): the forearm's direction in the image is right, the
-elbow point on it is not. The fit places the elbow where the forearm's line meets the
-upper arm's circle. A likely cause, not measured yet: the moving pixels of a slowly
-turning link lie mostly on one side of it, where the checks behind it contrast more, so
-that line runs beside the forearm rather than along it, and near a straight elbow a
-small sideways offset there moves the elbow point a long way.
+{given['mean_error_deg'][1]:+.1f}). Their sum, the forearm's direction in the image,
+is off by {sum(given['mean_error_deg']):+.1f} on average: the forearm is found, the elbow
+point on it is not. With the shoulder fixed, an elbow point slid along the forearm turns
+the upper arm one way and opens the elbow the other.
 """
