@@ -100,3 +100,27 @@ def test_parents_must_form_a_tree_rooted_at_the_base() -> None:
     with pytest.raises(ValueError, match="parents must give link 0 the base"):
         ArmSpec(link_lengths=(0.3, 0.1), link_masses=(1, 1), joint_ranges=((0, 1),) * 2,
                 parents=(0, -1))
+
+
+@pytest.mark.parametrize("scenario", ["chain-2", "chain-3", "exp4-hand"])
+def test_each_joint_holds_its_own_static_load_equally_many_times(scenario: str) -> None:
+    """The motor limits against MuJoCo's gravity torques with every link straight out
+    horizontally (the base joint keeps the spec's max_torque)."""
+    from imimic_gym.clips.scenarios import get_scenario
+
+    spec = get_scenario(scenario).robot_arm("torque")
+    model = build_arm_model(spec)
+    data = mujoco.MjData(model)
+    data.qpos[0] = -spec.reference_direction  # the base link points along image right
+    mujoco.mj_forward(model, data)  # at rest, the bias force is gravity alone
+    limits = model.actuator_ctrlrange[:, 1]
+    assert limits[0] == spec.max_torque
+    times_over = limits / np.abs(data.qfrc_bias)
+    assert np.allclose(times_over, times_over[0], rtol=1e-6)
+
+
+def test_a_horizontal_arm_shares_one_torque_limit() -> None:
+    spec = ArmSpec(link_lengths=(0.1, 0.1), link_masses=(0.02, 0.02),
+                   joint_ranges=((-1, 1),) * 2, plane="horizontal", control="torque",
+                   max_torque=0.3)
+    assert build_arm_model(spec).actuator_ctrlrange[:, 1].tolist() == [0.3, 0.3]

@@ -5,12 +5,13 @@ import re
 import warnings
 
 import gymnasium as gym
+import mujoco
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import imimic_gym
-from imimic_gym.envs.imitate_video import ImitateVideoEnv
+from imimic_gym.envs.imitate_video import ImitateVideoEnv, SimulationUnstableError
 from imimic_gym.metrics import wrap_angle
 
 FAST = {"n_frames": 30}
@@ -86,6 +87,39 @@ def test_bad_actions_raise_and_leave_the_simulation_untouched(action, message) -
              inner.data.ctrl)
     assert np.array_equal(before[0], after[0]) and np.array_equal(before[1], after[1])
     assert before[2:4] == after[2:4] and np.array_equal(before[4], after[4])
+
+
+@pytest.mark.parametrize("control", ["position", "velocity", "torque"])
+@pytest.mark.parametrize("scenario", imimic_gym.scenario_names())
+def test_bang_bang_actions_keep_the_physics_stable(scenario: str, control: str) -> None:
+    """Full-scale actions flipping sign every frame (an RL agent exploring) must not drive
+    MuJoCo unstable: it would flag bad accelerations and silently reset the arm. (The
+    hand's 50 g fingers under the 25 N m of the arm's joints did, within 5 frames.)"""
+    env = make(scenario=scenario, control=control, n_frames=40)
+    env.reset(seed=0)
+    inner = env.unwrapped
+    n = env.action_space.shape[0]
+    for t in range(39):
+        obs, *_ = env.step(np.full(n, 1.0 if t % 2 else -1.0, dtype=np.float32))
+    assert inner.data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number == 0
+    low, high = inner.model.jnt_range.T
+    assert np.all(obs["qpos"] > low - 0.2) and np.all(obs["qpos"] < high + 0.2)
+
+
+def test_an_unstable_step_raises_instead_of_resetting_the_arm_silently(
+        tmp_path, monkeypatch) -> None:
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes MUJOCO_LOG.TXT where it runs
+    inner = make(scenario="exp4-hand", control="torque").unwrapped
+    inner.reset(seed=0)
+    # The arm as it was before joints had their own limits: 25 N m on the 50 g fingers too.
+    inner.model.actuator_ctrlrange[:] = (-25.0, 25.0)
+    inner._ctrl_low, inner._ctrl_high = np.full(3, -25.0), np.full(3, 25.0)
+    with pytest.raises(SimulationUnstableError, match=r"unstable in frame \d+ .*torque control"):
+        for t in range(20):
+            inner.step(np.full(3, 1.0 if t % 2 else -1.0, dtype=np.float32))
+    assert (tmp_path / "MUJOCO_LOG.TXT").exists()
+    inner.reset(seed=0)  # usable again after reset
+    inner.step(np.zeros(3, dtype=np.float32))
 
 
 @pytest.mark.parametrize(

@@ -21,7 +21,7 @@ from imimic_gym.clips.types import Clip
 from imimic_gym.metrics import wrap_angle
 from imimic_gym.render import OffscreenRenderer
 
-__all__ = ["ImitateVideoEnv"]
+__all__ = ["ImitateVideoEnv", "SimulationUnstableError"]
 
 MODALITIES = ("rgb", "depth")
 # The physics step is the largest that divides a frame evenly and stays under this (s):
@@ -30,6 +30,14 @@ MODALITIES = ("rgb", "depth")
 MAX_PHYSICS_STEP = 0.0056
 MAX_OBSERVED_SPEED = 200.0  # rad/s; the joint-velocity sensor saturates here
 CLIPS_IN_MEMORY = 4
+
+
+_BAD_QACC = int(mujoco.mjtWarning.mjWARN_BADQACC)
+
+
+class SimulationUnstableError(RuntimeError):
+    """MuJoCo found a non-finite or huge joint acceleration during a step and reset the arm
+    to its start pose: the arm's motors are too strong for its links at this step size."""
 
 
 def clip_arm(clip: Clip, control: str) -> ArmSpec:
@@ -342,7 +350,18 @@ class ImitateVideoEnv(gym.Env, EzPickle):
             raise ValueError(f"action must be finite numbers in [-1, 1], got {a.tolist()}")
         a = a.clip(-1.0, 1.0)
         self.data.ctrl[:] = self._ctrl_low + (a + 1.0) * 0.5 * (self._ctrl_high - self._ctrl_low)
+        unstable = self.data.warning[_BAD_QACC].number
         mujoco.mj_step(self.model, self.data, nstep=self.n_substeps)
+        if self.data.warning[_BAD_QACC].number != unstable:
+            # MuJoCo has already put the arm back at its start pose: say so, rather than
+            # carry on as if the arm had jumped there.
+            raise SimulationUnstableError(
+                f"the physics went unstable in frame {self.frame_index + 1} under action "
+                f"{a.tolist()} ({self.arm.control} control, command range "
+                f"{self._ctrl_high.tolist()}, {1000 * self.model.opt.timestep:.2f} ms steps): "
+                "MuJoCo found a non-finite or huge joint acceleration and reset the arm to "
+                "its start pose; the motors are too strong for the links. Call reset()."
+            )
         self.frame_index += 1
 
         tracking = self._tracking()
