@@ -122,6 +122,7 @@ class ArmSpec:
         if self.plane == "horizontal":
             return (self.max_torque,) * self.n_links
         parents, n = self.link_parents, self.n_links
+
         def load(joint: int) -> float:
             """g * sum of mass * lever arm over the links that joint ``joint`` carries."""
             total, stack = 0.0, [(joint, 0.0)]
@@ -131,6 +132,7 @@ class ArmSpec:
                 end = start + self.link_lengths[link]
                 stack.extend((c, end) for c in range(n) if parents[c] == link)
             return 9.81 * total
+
         per_load = self.max_torque / load(0)
         return tuple(self.max_torque if i == 0 else per_load * load(i) for i in range(n))
 

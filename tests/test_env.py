@@ -117,7 +117,6 @@ def test_an_unstable_step_raises_instead_of_resetting_the_arm_silently(
     with pytest.raises(SimulationUnstableError, match=r"unstable in frame \d+ .*torque control"):
         for t in range(20):
             inner.step(np.full(3, 1.0 if t % 2 else -1.0, dtype=np.float32))
-    assert (tmp_path / "MUJOCO_LOG.TXT").exists()
     inner.reset(seed=0)  # usable again after reset
     inner.step(np.zeros(3, dtype=np.float32))
 
