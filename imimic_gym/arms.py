@@ -123,18 +123,19 @@ class ArmSpec:
             return (self.max_torque,) * self.n_links
         parents, n = self.link_parents, self.n_links
 
-        def load(joint: int) -> float:
-            """g * sum of mass * lever arm over the links that joint ``joint`` carries."""
+        def moment(joint: int) -> float:
+            """Sum of mass * lever arm (kg m) over the links ``joint`` carries, the arm held
+            straight: its static load over g, and g cancels in the ratios below."""
             total, stack = 0.0, [(joint, 0.0)]
             while stack:
                 link, start = stack.pop()
                 total += self.link_masses[link] * (start + self.link_lengths[link] / 2)
                 end = start + self.link_lengths[link]
                 stack.extend((c, end) for c in range(n) if parents[c] == link)
-            return 9.81 * total
+            return total
 
-        per_load = self.max_torque / load(0)
-        return tuple(self.max_torque if i == 0 else per_load * load(i) for i in range(n))
+        per_moment = self.max_torque / moment(0)
+        return tuple(self.max_torque if i == 0 else per_moment * moment(i) for i in range(n))
 
     def with_control(self, control: Control) -> ArmSpec:
         return replace(self, control=control)
