@@ -27,7 +27,7 @@ import numpy as np
 from imimic_gym.bench import machine
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
-from imimic_gym.estimators import don, frames, geometry, motion
+from imimic_gym.estimators import appearance, don, frames, geometry, motion
 
 # (owner, attribute, stage name); nested stages (a pivot solve inside `lines`) are
 # reported on their own and inside their caller.
@@ -44,6 +44,9 @@ STAGES = (
     (motion.PathEstimator, "update", "layer 4a: path estimator update"),
     (motion.PathEstimator, "omega", "layer 4a: omega"),
     (motion.PathEstimator, "alpha", "layer 4a: alpha"),
+    (appearance.LinkAppearance, "update", "appearance layer (ours)"),
+    (appearance.LinkAppearance, "_fit_line", "  of which the line fit"),
+    (motion.PathEstimator, "correct", "appearance: path correction"),
     (don.DON, "_estimate", "Estimate (+ keypoints)"),
 )
 

@@ -135,7 +135,8 @@ def bench_don(frames: int = 90, repeats: int = 7,
     (``apply`` on the full frame, the paper's comparison), on the same rendered frames of
     the default scenario at each resolution; one OpenCV thread; median of alternating
     runs after an untimed warm-up. ``ratio_mog2`` = DON / raw MOG2 (the paper: 30 ms /
-    100 ms = 0.3)."""
+    100 ms = 0.3); ``ratio_mog2_paper`` the same for DON with the paper's layers only
+    (``appearance=False``)."""
     import cv2
 
     from imimic_gym.estimators.baselines import CamShiftEstimator, MOG2Estimator
@@ -150,6 +151,7 @@ def bench_don(frames: int = 90, repeats: int = 7,
 
     runs = {
         "don": lambda f: DON().run(f),
+        "don_paper": lambda f: DON(appearance=False).run(f),
         "mog2_estimator": lambda f: MOG2Estimator().run(f),
         "camshift_estimator": lambda f: CamShiftEstimator().run(f),
         "mog2_raw": raw_mog2,
@@ -167,6 +169,7 @@ def bench_don(frames: int = 90, repeats: int = 7,
         row = {"resolution": f"{height}x{width}",
                **{f"{k}_ms": float(np.median(v)) for k, v in times.items()}}
         row["ratio_mog2"] = row["don_ms"] / row["mog2_raw_ms"]
+        row["ratio_mog2_paper"] = row["don_paper_ms"] / row["mog2_raw_ms"]
         rows.append(row)
     return {"frames": frames, "repeats": repeats, "opencv_threads": 1,
             "clock": "process CPU time", "rows": rows}

@@ -14,7 +14,8 @@ from imimic_gym.metrics import OCCLUDED, angle_rmse_deg, lag_frames
 
 __all__ = ["ESTIMATORS", "WARM_UP_S", "evaluate_estimator", "make_estimator", "make_linked_don"]
 
-ESTIMATORS = ("don", "mog2", "camshift", "cnn")
+# "don-paper" is DON with the paper's layers alone (``appearance=False``).
+ESTIMATORS = ("don", "don-paper", "mog2", "camshift", "cnn")
 WARM_UP_S = 0.5  # frame-differencing estimators see nothing until the arm has moved
 PREDICTION_ON = 0.3  # the trust threshold used for "with the prediction layer"
 
@@ -33,9 +34,12 @@ def make_estimator(name: str, clip_meta: dict[str, Any], fps: float,
                             reference_direction=float(clip_meta["reference_direction"]),
                             **params)
 
-    classes = {"don": DON, "mog2": MOG2Estimator, "camshift": CamShiftEstimator}
+    classes = {"don": DON, "don-paper": DON, "mog2": MOG2Estimator,
+               "camshift": CamShiftEstimator}
     if name not in classes:
         raise ValueError(f"unknown estimator {name!r}; expected one of {ESTIMATORS}")
+    if name == "don-paper":
+        params = {**params, "appearance": False}
     return classes[name](fps=fps, reference_direction=float(clip_meta["reference_direction"]),
                          joint_range=joint_range, **params)
 
@@ -60,7 +64,7 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
     cross-correlation peak, after warm-up), mean trust eta, and where the clip has
     occluded frames (over 10% of the moving links hidden), the mean eta on those frames
     and on the others, and the RMSE on them with the prediction layer off and on (DON
-    only).
+    only, with or without its appearance layer).
     """
     if modality not in MODALITIES:
         raise ValueError(f"unknown modality {modality!r}; expected one of {MODALITIES}")
@@ -97,8 +101,8 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
             trust = np.array([e.trust for e in estimates])
             row["mean_trust_occluded"] = float(trust[occluded].mean())
             row["mean_trust_clear"] = float(trust[~occluded].mean())
-        if occluded.any() and estimator == "don":
-            on = make_estimator("don", clip.meta, clip.fps, spec.joint_ranges[0],
+        if occluded.any() and estimator in ("don", "don-paper"):
+            on = make_estimator(estimator, clip.meta, clip.fps, spec.joint_ranges[0],
                                 trust_threshold=PREDICTION_ON).run(frames)
             with_prediction = np.array([e.angles for e in on])
             row["rmse_occluded_deg_prediction_off"] = angle_rmse_deg(angles[occluded],

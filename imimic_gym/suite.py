@@ -68,6 +68,7 @@ def _truth(env: gym.Env) -> gym.Env:
 ESTIMATORS: dict[str, Callable[[gym.Env], gym.Env]] = {
     "oracle": _truth,
     "don": _vision("don"),
+    "don-paper": _vision("don-paper"),
     "mog2": _vision("mog2"),
     "camshift": _vision("camshift"),
     "cnn": _cnn,

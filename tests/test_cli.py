@@ -84,9 +84,11 @@ def test_bench_don_reports_every_estimator_per_resolution() -> None:
     result = bench_don(frames=6, repeats=1, resolutions=((60, 80),))
     (row,) = result["rows"]
     assert row["resolution"] == "60x80"
-    for key in ("don_ms", "mog2_estimator_ms", "camshift_estimator_ms", "mog2_raw_ms"):
+    for key in ("don_ms", "don_paper_ms", "mog2_estimator_ms", "camshift_estimator_ms",
+                "mog2_raw_ms"):
         assert row[key] > 0
     assert row["ratio_mog2"] == pytest.approx(row["don_ms"] / row["mog2_raw_ms"])
+    assert row["ratio_mog2_paper"] == pytest.approx(row["don_paper_ms"] / row["mog2_raw_ms"])
 
 
 def test_bench_env_and_render_report_every_figure() -> None:

@@ -1,6 +1,7 @@
 import json
 import math
 
+import numpy as np
 import pytest
 
 from imimic_gym.cli import main
@@ -65,3 +66,22 @@ def test_eval_runs_the_shipped_cnn(tmp_path) -> None:
                  "--json", str(out)]) == 0
     mean = json.loads(out.read_text())[0]["mean"]
     assert mean["rmse_deg"] < 10.0 and mean["mean_trust"] == 1.0
+
+
+def test_don_paper_is_don_without_its_appearance_layer() -> None:
+    """``don-paper`` scores DON's paper layers alone: the same numbers as DON with
+    ``appearance=False``, other numbers than the default DON on a cluttered clip."""
+    from imimic_gym.clips.cache import load_clip
+    from imimic_gym.clips.scenarios import get_scenario
+    from imimic_gym.estimators.don import DON
+    from imimic_gym.metrics import angle_rmse_deg
+
+    spec = get_scenario("exp3-forearm-none", seed=1000)
+    clip = load_clip(spec, progress=False)
+    paper = DON(fps=clip.fps, reference_direction=spec.reference_direction,
+                joint_range=spec.joint_ranges[0], appearance=False).run(clip.frames)
+    expected = angle_rmse_deg(np.array([e.angles for e in paper]), clip.truth.angles)
+    scores = {name: evaluate_estimator("exp3-forearm-none", name, episodes=1)["rows"][0]
+              for name in ("don", "don-paper")}
+    assert scores["don-paper"]["rmse_deg"] == pytest.approx(expected)
+    assert scores["don"]["rmse_deg"] != pytest.approx(expected)

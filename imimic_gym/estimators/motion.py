@@ -47,6 +47,17 @@ class PathEstimator:
         self.A.append(a)
         return v, a
 
+    def correct(self, location: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Replace the newest location with a better reading of the same frame (n,) rad;
+        its v and a follow. Returns them, as `update` does."""
+        if self.location is None:
+            return self.update(location)
+        newest = self.V.pop()
+        self.A.pop()
+        # The location before the newest, if the newest was not the first after a reset.
+        self.location = self.location - newest if self.V else None
+        return self.update(location)
+
     def omega(self) -> np.ndarray:
         """Angular velocity, rad/s: the mean of the last two v, centred on the frame."""
         return _mean_of_last(self.V, 2, self.n) * self.fps

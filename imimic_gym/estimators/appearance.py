@@ -1,0 +1,257 @@
+"""DON's appearance layer (ours, not the paper's): the link's direction in the current
+frame from its colour, once the motion layers have found it.
+
+Why. Frame differences see a link only where it moves, as slivers at its leading and
+trailing edges. Where a distractor crosses near the joint its pixels merge with the
+slivers and tilt their axis; where the link turns under a degree a frame there are no
+slivers at all and DON holds a stale angle. On development clips those two cases were
+most of `exp3-forearm-none`'s error: median 1.7 deg, but the 5% of frames off by more than
+10 deg carried two thirds of the squared error. The link itself is in every frame, and it
+looks the same from frame to frame: one colour along its length.
+
+How.
+- DON vouches for a frame's reading when its motion layers read the link there (not a
+  hold, not a prediction) with eta at least VOUCH_TRUST.
+- Colour. From the first vouched reading whose direction crosses the link: the median
+  colour of the points along it that stand out most from the points 15 degrees to
+  either side (at least half of them must stand out). Then a slow running mean of the
+  matching pixels along this layer's reading wherever it agrees with a vouched one. A
+  colour, not a patch: it does not depend on where the pivot or the radius estimate sits
+  along the link.
+- Match of a pixel: exp(-(d / SIGMA)^2), d the sum over RGB of absolute differences from
+  the colour (under 0.1 counts as none). A ray's match is the mean along it, from 0.3 to
+  0.95 radii from the pivot.
+- Search. Rays every 2 degrees about DON's pivot, each at three sideways offsets (-2, 0,
+  +2 working px) so that a pivot a pixel or two off still lays a ray along the link.
+  Where DON vouches, within 12 degrees of its reading: a brighter match elsewhere (a
+  static object of the link's colour) cannot pull the reading away. Where it does not
+  (the link stalled, hidden, or among clutter that drags DON's trust down), within 24
+  degrees of where this layer's own last two readings put the link now; after a frame
+  without a reading, nowhere until DON vouches again. Only where the joint can turn. A
+  best match under 0.25, or under 0.15 above the lower quartile's, is no reading.
+- Direction. The best ray is a 2-degree guess. The direction comes from the straight line
+  fitted to the matching pixels of a corridor 4 px either side of it (sideways offset
+  against distance, weighted by the match): a line's direction does not depend on where
+  the pivot is, and this reading is of the current frame, where DON's from a difference
+  image is half a frame old.
+
+What it cannot fix is a wrong pivot (the search's rays start there) or a link hidden for
+longer than its track lasts.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+
+from imimic_gym.metrics import wrap_angle
+
+__all__ = ["LinkAppearance"]
+
+STEP = math.radians(2.0)  # the search's spacing of ray directions
+TURN = 180  # grid steps in a turn
+VOUCH_TRUST = 0.8  # DON's eta from which its reading of the link vouches for it
+NEAR = 6  # where DON vouches, how far (grid steps: 12 deg) from its reading to look
+TRACK = 12  # where not, how far (grid steps) from where this layer's track puts the link
+AGREE = math.radians(3.0)  # a reading this close to a vouched one teaches the colour
+RELEARN = 5  # vouched frames running that this layer reads nothing or more than
+DISAGREE = math.radians(6.0)  # this far off make the colour learned anew
+OFFSETS = np.array([-2.0, 0.0, 2.0])  # sideways ray offsets, working px
+FRACTIONS = np.linspace(0.3, 0.95, 14)  # where along the link a ray is sampled, radii
+SIGMA = 35.0  # summed absolute RGB difference (grey levels) at which a match is exp(-1)
+MIN_MATCH, MIN_CONTRAST = 0.25, 0.15
+LEARNING_RATE = 0.1
+CORRIDOR_PX, CORRIDOR_STEP = 4.0, 0.5  # the line fit's half-width and sample spacing, px
+# Match (0-255) per summed absolute difference (0-255, saturated); under 0.1 is none.
+_MATCH = 255 * np.exp(-(np.arange(256) / SIGMA) ** 2)
+_MATCH = np.where(_MATCH < 25.5, 0, np.round(_MATCH)).astype(np.uint8)
+_SUM = np.ones((1, 3))  # cv2.transform: the sum of the channels
+
+
+def _match(colours: np.ndarray, colour: tuple[float, ...]) -> np.ndarray:
+    """Per-pixel match (0-255 uint8, (h, w)) of (h, w, 3) uint8 colours with ``colour``."""
+    return cv2.LUT(cv2.transform(cv2.absdiff(colours, colour), _SUM), _MATCH)
+
+
+class LinkAppearance:
+    """Reads one link's direction from its colour, about a pivot found elsewhere.
+
+    Directions are radians, counter-clockwise with the image's y axis up; coordinates
+    are working-resolution pixels (x right, y down), as in `geometry.py`.
+    """
+
+    def __init__(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        self.colour: tuple[float, ...] | None = None  # RGB (and a 0 for OpenCV's scalar)
+        self.last: float | None = None  # the last frame's reading, rad (None: no reading)
+        self.turn = 0.0  # how far the link turned between the last two readings, rad
+        self.disagreed = 0  # vouched frames running that this layer read otherwise or not
+        self._rays: tuple[np.ndarray, np.ndarray] | None = None  # sample maps, cached
+        self._rays_for: tuple[float, float, float] | None = None  # pivot x, y, radius
+
+    def update(self, image: np.ndarray, pivot: np.ndarray, radius: float, prior: float,
+               read: bool, trust: float, directions: tuple[float, float] | None = None
+               ) -> float | None:
+        """The link's direction (rad) in ``image`` ((h, w, 3) uint8, the working frame),
+        or None where its colour is not seen (or not yet learned).
+
+        Args:
+            pivot: (2,) the link's pivot, working px.
+            radius: the link's length from the pivot, working px.
+            prior: DON's direction for this frame, rad.
+            read: DON's motion layers read the link in this frame (``prior`` is that
+                reading, not a held or predicted one).
+            trust: DON's eta for the frame.
+            directions: (middle, half-width), rad, where the link can point; None: anywhere.
+
+        A colour that fails RELEARN vouched frames running (no reading, or one more than
+        DISAGREE from DON's) was learned from something else: it is dropped and learned
+        again from the next vouched frame.
+        """
+        vouched = read and trust >= VOUCH_TRUST
+        angle = self._read(image, pivot, radius, prior, vouched, directions)
+        if vouched and self.colour is not None:
+            agrees = angle is not None and abs(wrap_angle(angle - prior)) < DISAGREE
+            self.disagreed = 0 if agrees else self.disagreed + 1
+            if self.disagreed >= RELEARN:
+                self.colour, self.last, self.disagreed = None, None, 0
+        return angle
+
+    def _read(self, image: np.ndarray, pivot: np.ndarray, radius: float, prior: float,
+              vouched: bool, directions: tuple[float, float] | None) -> float | None:
+        """`update` without the relearning: ``vouched`` is DON's reading ``prior``."""
+        px, py = float(pivot[0]), float(pivot[1])
+        if self.colour is None:
+            if vouched:
+                self.colour = self._first_colour(image, px, py, radius, prior)
+            return None
+        first, end = self._search(round(prior / STEP), vouched, directions)
+        if end <= first:
+            self.last = None
+            return None
+        # Rays first .. end - 1 (grid steps, unwrapped): a slice of the maps' rows, which
+        # run twice round the circle so that no search wraps.
+        map1, map2 = self._ray_maps(px, py, radius)
+        rows = slice(len(OFFSETS) * (first % TURN), len(OFFSETS) * (first % TURN + end - first))
+        pixels = _match(cv2.remap(image, map1[rows], map2[rows], cv2.INTER_LINEAR), self.colour)
+        rays = cv2.reduce(pixels, 1, cv2.REDUCE_AVG, dtype=cv2.CV_32F).reshape(-1, len(OFFSETS))
+        match = rays.max(axis=1)
+        best = int(np.argmax(match))
+        # The background's match: the lower quartile of the rays (a link near the pivot
+        # crosses several neighbouring rays).
+        quartile = len(match) // 4
+        if match[best] < 255 * MIN_MATCH or (
+                match[best] - float(np.partition(match, quartile)[quartile])
+                < 255 * MIN_CONTRAST):
+            self.last = None
+            return None
+        angle, offset = (first + best) * STEP, float(OFFSETS[int(np.argmax(rays[best]))])
+        angle, patch, weight = self._fit_line(image, px, py, radius, angle, offset)
+        if directions is not None and abs(wrap_angle(angle - directions[0])) > directions[1]:
+            self.last = None  # the fit left where the link can point: not the link
+            return None
+        self.turn = 0.0 if self.last is None else float(wrap_angle(angle - self.last))
+        self.last = angle
+        if vouched and abs(wrap_angle(angle - prior)) < AGREE:
+            self._learn(patch, weight)
+        return angle
+
+    @staticmethod
+    def _first_colour(image: np.ndarray, px: float, py: float, radius: float,
+                      angle: float) -> tuple[float, ...] | None:
+        """The link's colour from a vouched reading ``angle``: of the points along it
+        that differ (summed absolute RGB difference over 2 SIGMA) from the points at the
+        same distances 15 degrees to either side (the background beside the link), the
+        median colour of the half that differ most (a thin link's core, not its edges
+        blurred into the background); None unless at least half of the points differ (the
+        ray may have missed a thin link, and a ray across the background would learn the
+        wall)."""
+        along = radius * FRACTIONS[None, :]
+        angles = angle + np.radians([0.0, -15.0, 15.0])[:, None]
+        xs = (px + np.cos(angles) * along).astype(np.float32)
+        ys = (py - np.sin(angles) * along).astype(np.float32)
+        link, *beside = cv2.remap(image, xs, ys, cv2.INTER_LINEAR).astype(np.int16)
+        difference = np.min([np.abs(link - background).sum(axis=1) for background in beside],
+                            axis=0)
+        distinct = difference > 2 * SIGMA
+        if np.count_nonzero(distinct) < len(FRACTIONS) // 2:
+            return None
+        core = difference >= np.median(difference[distinct])
+        return (*np.median(link[core], axis=0).tolist(), 0.0)
+
+    def _search(self, prior: int, vouched: bool, directions: tuple[float, float] | None
+                ) -> tuple[int, int]:
+        """The rays to try, first .. end - 1, in grid steps counted from direction 0 and
+        unwrapped to lie near ``prior`` (DON's direction, in grid steps): within NEAR of
+        it where DON ``vouched`` for it; else within TRACK of where the last reading's
+        direction and turn rate put the link now (none after a frame without a reading).
+        Only where the link can point."""
+        if vouched:
+            first, end = prior - NEAR, prior + NEAR + 1
+        elif self.last is not None:
+            ahead = round((self.last + self.turn) / STEP)
+            ahead = prior + (ahead - prior + TURN // 2) % TURN - TURN // 2
+            first, end = ahead - TRACK, ahead + TRACK + 1
+        else:
+            return 0, 0
+        if directions is not None and directions[1] < math.pi:
+            middle, half_width = directions[0] / STEP, directions[1] / STEP
+            middle = prior + (middle - prior + TURN / 2) % TURN - TURN / 2
+            first = max(first, math.ceil(middle - half_width))
+            end = min(end, math.floor(middle + half_width) + 1)
+        return first, min(end, first + TURN)
+
+    def _ray_maps(self, px: float, py: float, radius: float) -> tuple[np.ndarray, np.ndarray]:
+        """cv2.remap maps (fixed point, (2 TURN len(OFFSETS), len(FRACTIONS)) rows and
+        columns) of every ray twice round: row 3k + j is direction k STEP shifted sideways
+        by OFFSETS[j]. Kept while the pivot stays within 0.3 px and the radius within 3%."""
+        kept = self._rays_for
+        if (kept is None or abs(kept[0] - px) > 0.3 or abs(kept[1] - py) > 0.3
+                or abs(kept[2] - radius) > 0.03 * kept[2]):
+            grid = np.arange(2 * TURN) * STEP
+            cos, sin = np.cos(grid)[:, None, None], np.sin(grid)[:, None, None]
+            along, side = radius * FRACTIONS[None, None, :], OFFSETS[None, :, None]
+            # Sideways is the ray's direction turned clockwise on screen: (-sin, -cos).
+            xs = (px + cos * along - sin * side).reshape(-1, len(FRACTIONS))
+            ys = (py - sin * along - cos * side).reshape(-1, len(FRACTIONS))
+            self._rays = cv2.convertMaps(xs.astype(np.float32), ys.astype(np.float32),
+                                         cv2.CV_16SC2)
+            self._rays_for = (px, py, radius)
+        return self._rays
+
+    def _fit_line(self, image: np.ndarray, px: float, py: float, radius: float,
+                  angle: float, offset: float) -> tuple[float, np.ndarray, np.ndarray]:
+        """The link's direction from the corridor about the ray at ``angle`` shifted
+        sideways by ``offset``: the weighted least-squares line of sideways offset against
+        distance (the match's image moments in the corridor's frame); ``angle`` if the
+        corridor holds too little of the link. Also returns the corridor's pixels
+        ((rows, cols, 3) uint8) and their match (0-255)."""
+        first, cols = 0.2 * radius, max(2, int(0.8 * radius / CORRIDOR_STEP))
+        rows = 2 * round(CORRIDOR_PX / CORRIDOR_STEP) + 1
+        side0 = offset - CORRIDOR_PX
+        cos, sin, s = math.cos(angle), math.sin(angle), CORRIDOR_STEP
+        # Corridor pixel (u, v) is at distance first + u s along the ray, side0 + v s aside.
+        to_image = np.array([[cos * s, -sin * s, px + cos * first - sin * side0],
+                             [-sin * s, -cos * s, py - sin * first - cos * side0]])
+        patch = cv2.warpAffine(image, to_image, (cols, rows),
+                               flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP)
+        weight = _match(patch, self.colour)
+        moments = cv2.moments(weight)
+        if moments["m00"] > 3 * 255 and moments["mu20"] > 1e-6:
+            # A line turned by a small delta from the ray lies sideways at delta * distance:
+            # the slope of offset against distance (rows per column, both CORRIDOR_STEP).
+            angle += math.atan(moments["mu11"] / moments["mu20"])
+        return angle, patch, weight
+
+    def _learn(self, patch: np.ndarray, weight: np.ndarray) -> None:
+        """Move the colour toward the mean of the corridor's pixels that match it within
+        SIGMA (``patch`` (rows, cols, 3) uint8, ``weight`` their match, 0-255)."""
+        close = cv2.compare(weight, 94, cv2.CMP_GT)  # 255 / e
+        if cv2.countNonZero(close) >= 3:
+            mean = cv2.mean(patch, mask=close)
+            self.colour = (*((1 - LEARNING_RATE) * c + LEARNING_RATE * m
+                             for c, m in zip(self.colour[:3], mean[:3], strict=True)), 0.0)
