@@ -72,6 +72,19 @@ def render(load, table) -> str:
   keeping guesses before the pivot inside the joint range (no change: the ranges are
   wide).
 
+  The round of the appearance layer (`estimators/appearance.py`; chosen on development
+  clips 0-39): the link's direction read from its colour in the current frame, near
+  what the paper's layers read. It does not touch the pivot, so the table above changes
+  with it only as DON's readings do. Tried in that round and not kept: a patch template
+  along the link instead of one colour (it broke whenever the pivot or the radius
+  estimate moved: `exp2-servo` 0.5 -> 3.2 deg); the pivot refined by least squares over
+  the layer's fitted lines, or taken where the ends of the link's colour region recur
+  (no better than DON's: the ends lie 5-6 px from the elbow, the least squares pulled
+  good pivots away); sampling the full-resolution frame (worse on the person clips and
+  the servo); searching the whole joint range for a lost link (worse on
+  `exp3-forearm-none` and `-low`); anchoring the search on every reading of DON's, not
+  only those with eta at least 0.8 (`exp3-forearm-none` 2.9 -> 5.0); keeping the
+  reading out of DON's own state (mixed).
   Where the rest of the error is, on development clips 0-{sources['seeds'] - 1} (command:
   `.venv/bin/python benchmarks/don_error_sources.py --json
   benchmarks/results/don_error_sources.json`; share of the squared error by DON's state
