@@ -17,7 +17,9 @@ How.
   either side (at least half of them must stand out). Then a slow running mean of the
   matching pixels along this layer's reading wherever it agrees with a vouched one. A
   colour, not a patch: it does not depend on where the pivot or the radius estimate sits
-  along the link.
+  along the link. A colour that reads nothing, or something else than DON, in 5 vouched
+  frames running was learned from something else (a link first seen in part, blurred
+  into its background): it is learned again.
 - Match of a pixel: exp(-(d / SIGMA)^2), d the sum over RGB of absolute differences from
   the colour (under 0.1 counts as none). A ray's match is the mean along it, from 0.3 to
   0.95 radii from the pivot.
