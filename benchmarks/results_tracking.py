@@ -39,7 +39,7 @@ def render(load: Callable[[str], object],
         learned = rmse[(scenario, "learned")]
         best = min(SCRIPTED, key=lambda c, s=scenario: rmse[(s, c)])
         cut = 1 - learned / rmse[(scenario, best)]
-        change = f"{100 * cut:.0f}% lower" if cut >= 0 else f"{-100 * cut:.0f}% higher"
+        change = f"{100 * cut:.1f}% lower" if cut >= 0 else f"{-100 * cut:.1f}% higher"
         checks.append(f"  - `{scenario}` (best scripted: {best}, "
                       f"{rmse[(scenario, best)]:.2f} deg): learned {learned:.2f} deg, "
                       f"{change}; 20% lower needed: {_verdict(cut >= 0.2)}.")
