@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import numpy as np
@@ -34,12 +35,10 @@ def make_estimator(name: str, clip_meta: dict[str, Any], fps: float,
                             reference_direction=float(clip_meta["reference_direction"]),
                             **params)
 
-    classes = {"don": DON, "don-paper": DON, "mog2": MOG2Estimator,
-               "camshift": CamShiftEstimator}
+    classes = {"don": DON, "don-paper": functools.partial(DON, appearance=False),
+               "mog2": MOG2Estimator, "camshift": CamShiftEstimator}
     if name not in classes:
         raise ValueError(f"unknown estimator {name!r}; expected one of {ESTIMATORS}")
-    if name == "don-paper":
-        params = {**params, "appearance": False}
     return classes[name](fps=fps, reference_direction=float(clip_meta["reference_direction"]),
                          joint_range=joint_range, **params)
 
