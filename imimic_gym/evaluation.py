@@ -68,7 +68,7 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
     if modality not in MODALITIES:
         raise ValueError(f"unknown modality {modality!r}; expected one of {MODALITIES}")
     spec = get_scenario(scenario)
-    if spec.n_links != 1 and estimator != "don":
+    if spec.n_links != 1 and estimator not in ("don", "don-paper"):
         raise ValueError(f"the estimators other than DON follow one moving link; "
                          f"{scenario!r} has {spec.n_links}")
     rows = []
@@ -80,7 +80,7 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
         if spec.n_links == 1:
             est = make_estimator(estimator, clip.meta, clip.fps, spec.joint_ranges[0])
         else:
-            est = make_linked_don(spec, clip.fps)
+            est = make_linked_don(spec, clip.fps, appearance=estimator == "don")
         estimates = est.run(frames)
         angles = np.array([e.angles for e in estimates])
         row: dict[str, Any] = {

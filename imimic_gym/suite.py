@@ -38,10 +38,10 @@ def _vision(name: str) -> Callable[[gym.Env], gym.Env]:
         from imimic_gym.wrappers import EstimatorObservation
 
         inner = env.unwrapped
-        if inner.arm.n_links != 1 and name == "don":
+        if inner.arm.n_links != 1 and name in ("don", "don-paper"):
             from imimic_gym.wrappers import DONObservation
 
-            return DONObservation(env, keep_frame=False)
+            return DONObservation(env, keep_frame=False, appearance=name == "don")
         if inner.arm.n_links != 1:
             raise ValueError(f"estimator {name!r} follows one moving link so far; this "
                              f"scenario has {inner.arm.n_links}")

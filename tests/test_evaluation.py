@@ -85,3 +85,19 @@ def test_don_paper_is_don_without_its_appearance_layer() -> None:
               for name in ("don", "don-paper")}
     assert scores["don-paper"]["rmse_deg"] == pytest.approx(expected)
     assert scores["don"]["rmse_deg"] != pytest.approx(expected)
+
+
+def test_don_paper_on_two_links_is_linked_don_without_its_appearance_layer() -> None:
+    from imimic_gym.clips.cache import load_clip
+    from imimic_gym.clips.scenarios import get_scenario
+    from imimic_gym.evaluation import make_linked_don
+    from imimic_gym.metrics import angle_rmse_deg
+
+    spec = get_scenario("chain-2", seed=1000)
+    clip = load_clip(spec, progress=False)
+    paper = make_linked_don(spec, clip.fps, appearance=False).run(clip.frames)
+    expected = angle_rmse_deg(np.array([e.angles for e in paper]), clip.truth.angles)
+    scores = {name: evaluate_estimator("chain-2", name, episodes=1)["rows"][0]
+              for name in ("don", "don-paper")}
+    assert scores["don-paper"]["rmse_deg"] == pytest.approx(expected)
+    assert scores["don"]["rmse_deg"] != pytest.approx(expected)
