@@ -47,7 +47,7 @@ fi
 "$BIN/python" benchmarks/eval_paper_time.py --json benchmarks/results/paper_time.json
 # DON's time by stage (issue 3 speed).
 "$BIN/python" benchmarks/don_stages.py --json benchmarks/results/don_stages.json
-"$BIN/imimic" eval --scenario chain-2 chain-3 exp4-hand --estimator don --episodes 10 \
+"$BIN/imimic" eval --scenario chain-2 chain-3 exp4-hand --estimator don don-paper --episodes 10 \
     --json benchmarks/results/don_links.json
 "$BIN/python" benchmarks/don_links_speed.py --json benchmarks/results/don_links_speed.json
 "$BIN/python" benchmarks/write_results.py
