@@ -50,7 +50,8 @@ or where a moving link's pivot is. Decisions (each also noted where it acts):
   elbow on the forearm's line, but where along it depends on the upper arm's length,
   measured in pixels that are often the forearm's: with the true shoulder given, the
   shoulder and elbow joints of chain-2 were off by -6.0 and +6.1 degrees on average,
-  with the forearm's image direction right. A line fitted to a link's colour gives its
+  with the forearm's image direction right (held-out clips, `don_known_pivot.py`,
+  before this layer). A line fitted to a link's colour gives its
   direction without any length. Each link `APPEARANCE_MIN_LENGTH` px or longer gets a
   `LinkAppearance`, about the link's start in the fitted pose (the elbow for the
   forearm), searched about its fitted direction; every fitted frame vouches for the fit
