@@ -76,7 +76,7 @@ import numpy as np
 
 from imimic_gym.estimators.appearance import LinkAppearance
 from imimic_gym.estimators.don import MotionMask
-from imimic_gym.estimators.geometry import RANGE_MARGIN_DEG
+from imimic_gym.estimators.geometry import pointing_range
 from imimic_gym.estimators.motion import PathEstimator, TorqueModel
 from imimic_gym.estimators.types import Estimate
 from imimic_gym.metrics import wrap_angle
@@ -261,6 +261,13 @@ class LinkedDON:
         for i, p in enumerate(self.parents):
             out[..., i] += self.reference_direction if p < 0 else out[..., p]
         return out
+
+    def joint_angles(self, directions: np.ndarray) -> np.ndarray:
+        """(n,) joint angles (rad, wrapped) for the links' absolute image directions
+        (n,) rad: the inverse of `directions`."""
+        parents = np.array([self.reference_direction if p < 0 else directions[p]
+                            for p in self.parents])
+        return wrap_angle(directions - parents)
 
     def joints(self, q: np.ndarray, pivot: np.ndarray, lengths: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:
@@ -455,23 +462,20 @@ class LinkedDON:
         fitted_directions = self.directions(angles)
         starts, _ = self.joints(angles, pivot, lengths)
         directions = fitted_directions.copy()
-        margin, read = math.radians(RANGE_MARGIN_DEG), 0
+        read = 0
         for i, parent in enumerate(self.parents):
             if lengths[i] < APPEARANCE_MIN_LENGTH:
                 continue
-            lo, hi = self.joint_ranges[i]
             base = self.reference_direction if parent < 0 else directions[parent]
             angle = self.appearances[i].update(
                 self.mask.history[-1], starts[i], float(lengths[i]),
                 prior=float(fitted_directions[i]), read=fitted, trust=float(fitted),
-                directions=(base + (lo + hi) / 2, (hi - lo) / 2 + margin))
+                directions=pointing_range(base, self.joint_ranges[i]))
             if angle is not None:
                 directions[i], read = angle, read + 1
         if read == 0:
             return
-        q = np.array([directions[i] - (self.reference_direction if p < 0 else directions[p])
-                      for i, p in enumerate(self.parents)])
-        q = wrap_angle(q)
+        q = self.joint_angles(directions)
         omega, alpha = self.estimate.omega, self.estimate.alpha
         if fitted and read == self.n:
             self.q = q.copy()

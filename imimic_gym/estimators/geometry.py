@@ -17,12 +17,20 @@ import numpy as np
 
 from imimic_gym.metrics import wrap_angle
 
-__all__ = ["LinkTracker", "PivotEstimator", "component_lines"]
+__all__ = ["LinkTracker", "PivotEstimator", "component_lines", "pointing_range"]
 
 # An edge that slid sideways by at least SHIFT_PX while turning less than TURN_DEG since the
 # last frame is translating (an occluder's side), not turning about a pivot.
 SHIFT_PX, TURN_DEG = 1.5, 2.0
 RANGE_MARGIN_DEG = 20.0  # how far past its joint range a region may still be the link
+
+
+def pointing_range(base: float, joint_range: tuple[float, float]) -> tuple[float, float]:
+    """Where a link can point, as (middle direction, half-width), rad: its joint's range
+    (low, high, rad) about its parent's direction ``base`` (rad), widened by
+    `RANGE_MARGIN_DEG` either side for a pivot a few pixels off."""
+    lo, hi = joint_range
+    return base + (lo + hi) / 2, (hi - lo) / 2 + math.radians(RANGE_MARGIN_DEG)
 
 
 def component_lines(mask: np.ndarray, min_area: int) -> np.ndarray:
@@ -283,11 +291,8 @@ class LinkTracker:
         self.reach_back = reach_back
         # Where the link can point: (middle direction, half-width) in rad, the joint's
         # range plus a margin for a pivot a few pixels off.
-        self.directions: tuple[float, float] | None = None
-        if joint_range is not None:
-            lo, hi = joint_range
-            self.directions = (reference_direction + (lo + hi) / 2,
-                               (hi - lo) / 2 + math.radians(RANGE_MARGIN_DEG))
+        self.directions = (None if joint_range is None
+                           else pointing_range(reference_direction, joint_range))
         self.pivots = PivotEstimator(directions=self.directions, reach_back=reach_back,
                                      seek_every=seek_every)
         self._previous_lines = np.zeros((0, 7))
