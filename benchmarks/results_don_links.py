@@ -77,23 +77,27 @@ polyline best explains DON's moving pixels l_1; the root pivot and the link leng
 from the video (nothing given). Then (`don`, the default) the appearance layer reads each
 link 12 working px or longer along its colour; `don-paper` is the paper's layers alone
 (`LinkedDON(appearance=False)`). Estimator only, clip seeds {first}-{first + episodes - 1}
-(tuning used seeds 0-9), 150 frames each, means over the clips; settled RMSE leaves out
-the first 0.5 s, as in the one-link table. Each joint's angle is relative to its parent
-link. MOG2 and CamShift stay one-link and are not run here.
+(the rules were chosen on seeds below 1000: `benchmarks/don_links_dev_seeds.py`), 150
+frames each, means over the clips; settled RMSE leaves out the first 0.5 s, as in the
+one-link table. Each joint's angle is relative to its parent link. MOG2 and CamShift stay
+one-link and are not run here.
 
 {HEADER}
 {chr(10).join(rows)}
 {verdict}
-Where the error comes from (seen on the tuning clips): the fit places the elbow on the
-forearm's line where the upper arm's measured length puts it, and the upper arm's blue
-sleeve barely differs from the blue-grey checks behind it, so its length is measured
+Where the error comes from (seen on the development clips): the fit places the elbow on
+the forearm's line where the upper arm's measured length puts it, and the upper arm's
+blue sleeve barely differs from the blue-grey checks behind it, so its length is measured
 mostly from the forearm's pixels; the appearance layer reads each link's direction from
-its colour instead, which needs no length. What is left: the found shoulder sits a few
-pixels below the true one, where the arm leaves the torso's outline (below); the first
-second goes on finding the pivot and the lengths; and some clips lock onto a wrong pose
-for a while before a search over the whole ranges recovers it (the `chain-2` clip at
-{worst_clip:.1f} degrees above). The appearance layer searches near the fitted pose, so
-it cannot undo a wrong lock.
+its colour instead, which needs no length. Over the first frames the place where the
+moving arm's far ends recur was usually its hand, not its shoulder, and the pose fitted
+about it locked 100 degrees off; the pivot must now be a place from which the arm reaches
+where the shoulder can turn it (`don_links.facing_point`). What is left: the found
+shoulder sits a few pixels below the true one, where the arm leaves the torso's outline
+(below); the first second goes on finding the pivot and the lengths; and some clips lock
+onto a wrong pose for a while before a search over the whole ranges recovers it (the
+`chain-2` clip at {worst_clip:.1f} degrees above). The appearance layer searches near the
+fitted pose, so it cannot undo a wrong lock.
 {shoulder}{speed}"""
 
 

@@ -50,4 +50,5 @@ fi
 "$BIN/imimic" eval --scenario chain-2 chain-3 exp4-hand --estimator don don-paper --episodes 10 \
     --json benchmarks/results/don_links.json
 "$BIN/python" benchmarks/don_links_speed.py --json benchmarks/results/don_links_speed.json
+"$BIN/python" benchmarks/don_links_dev_seeds.py --json benchmarks/results/don_links_dev.json
 "$BIN/python" benchmarks/write_results.py

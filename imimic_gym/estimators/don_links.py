@@ -19,23 +19,40 @@ or where a moving link's pivot is. Decisions (each also noted where it acts):
   dozen moving pixels (the arm stopping) can otherwise flip a link.
 - The root pivot (the shoulder, or the elbow for the hand) is given, or found as the
   place where the moving tree's far ends keep coming back to (`blob_ends`,
-  `recurring_point`): the tips sweep about, the pivot end stays. A first pivot after
-  `PIVOT_MIN_ENDS` ends, re-solved each frame until `PIVOT_ENDS`, then fixed (and the
-  lengths measured about the rougher one dropped). The one-link pivot
+  `facing_point`): the tips sweep about, the pivot end stays. Not any such place: one
+  from which the tree's other end lies where the root can point. Over the first few
+  frames the arm often moves slowly, its tip recurs as much as the pivot end, and the
+  densest place at the first solve lay 20-51 px off (mostly at the tip) on 27 of the
+  first 30 development chain-2 clips; a pose fitted about it locked the shoulder 100
+  degrees off until the recheck.
+  A first pivot after `PIVOT_MIN_ENDS` ends, re-solved each frame until `PIVOT_ENDS`,
+  then fixed (and the lengths measured about the rougher one dropped). A pivot that
+  moves by more than the band while it settles drops the tracked pose: the next fit
+  searches the whole ranges, since a pose fitted about another point says nothing
+  about this one. The one-link pivot
   (`geometry.PivotEstimator`, the mode of crossing region axes) was tried and lands on
   the elbow's crossings, 20 px off on chain-2. Known bias: on chain-2 the found pivot
   sits about 5 px below the shoulder keypoint, where the arm leaves the torso's outline;
   refining it by the fit's score or by crossing the upper arm's lines was tried and
   made the angles worse.
-- A wrong lock must not last: every `RECHECK_EVERY` fitted frames (once the pivot is
-  fixed) searches from `RESTARTS` root angles across the whole ranges compete with the
-  tracked pose, which a pose explaining `RECHECK_GAIN` more of the pixels replaces.
+- A wrong lock must not last: every `RECHECK_EVERY` fitted frames, searches from
+  `RESTARTS` root angles across the whole ranges compete with the tracked pose, which a
+  pose explaining `RECHECK_GAIN` more of the pixels replaces. Also while the pivot
+  settles: the first lengths come from three measurements, and a pose fitted with them
+  can lock as wrongly as one about a wrong pivot.
+- Those two rules and the corner rule below, together, on development clips
+  (`benchmarks/don_links_dev_seeds.py`, here and at the commit before them), settled
+  RMSE per joint: chain-2 seeds 0-29 12.85/9.04 -> 4.65/5.56 deg, chain-3 seeds 0-19
+  23.51/24.09/30.36 -> 11.37/17.24/24.94, exp4-hand seeds 0-39 12.10/32.92/18.54 ->
+  12.07/23.54/17.56.
 - Link lengths are not known from the video a priori. The tip of the tree is the moving
   pixel farthest from the pivot; each joint is the corner of the polyline pivot -> joint
   -> tip that best explains the pixels (`corner`), measured only where the polyline
-  bends by more than `BENT_DEG` (along a straight arm any point fits); a leaf's length is
-  its farthest moving pixel from its joint inside its joint's range. A length is the
-  median of its measurements; the links are followed once each has `MIN_MEASUREMENTS`.
+  bends by more than `BENT_DEG` (along a straight arm any point fits), at least the band
+  from both ends (a point a pixel off the line next to an end bends it that much); a
+  leaf's length is its farthest moving pixel from its joint inside its joint's range. A
+  length is the median of its measurements; the links are followed once each has
+  `MIN_MEASUREMENTS`.
 - Binarisation threshold 4 grey levels, not the one-link DON's 12: the upper arm's blue
   sleeve against the blue-grey wall barely differs, and without its pixels the elbow is
   placed by the forearm alone (chosen on chain-2 seeds 0-4, as were band 9 px and
@@ -92,6 +109,7 @@ MIN_MEASUREMENTS = 3  # before the links are followed
 MEASURE_EVERY = 4  # fitted frames between length measurements once the memory is full
 PIVOT_MIN_ENDS = 16  # far ends of moving trees seen before a first root pivot
 PIVOT_ENDS = 60  # far ends of moving trees seen before the root pivot is fixed
+FACING = 0.5  # share of a pivot's trees that must reach where the root can point
 MAX_POINTS = 600  # moving pixels the fit looks at (evenly subsampled beyond)
 SWEEPS = 2  # coordinate-search passes per frame
 RECHECK_EVERY = 10  # fitted frames between searches of the whole ranges
@@ -140,12 +158,34 @@ def blob_ends(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return first, points[int(np.argmax(np.hypot(*(points - first).T)))]
 
 
-def recurring_point(points: np.ndarray, radius: float) -> np.ndarray:
-    """The densest place among ``points`` (k, 2) px: the point with the most others within
-    ``radius``, moved to the mean of those. (2,) px."""
-    distance = np.hypot(*(points[:, None, :] - points[None, :, :]).transpose(2, 0, 1))
+def facing_point(ends: np.ndarray, radius: float, reach: float,
+                 directions: tuple[float, float]) -> np.ndarray | None:
+    """The root pivot among the far ends of moving trees: the densest place that the
+    trees reach out from where the root can point. (2,) px, or None if no place does.
+
+    ``ends``: (2k, 2) px, the two far ends (`blob_ends`) of each of k frames, in pairs.
+    A place is an end moved to the mean of the ends within ``radius`` of it; places are
+    tried from the most such ends down. A place qualifies when, of the frames with an
+    end within ``reach`` of it, at least `FACING` have their other end in
+    ``directions`` (middle, half-width, rad) seen from it: from the shoulder the hand
+    lies where the shoulder joint can turn the arm, from the hand the shoulder often
+    does not.
+    """
+    distance = np.hypot(*(ends[:, None, :] - ends[None, :, :]).transpose(2, 0, 1))
     near = distance < radius
-    return points[near[int(np.argmax(near.sum(axis=1)))]].mean(axis=0)
+    pairs = ends.reshape(-1, 2, 2)
+    middle, half_width = directions
+    for index in np.argsort(-near.sum(axis=1), kind="stable"):
+        point = ends[near[index]].mean(axis=0)
+        gap = np.hypot(*(pairs - point).transpose(2, 0, 1))  # (k, 2)
+        from_here = gap.min(axis=1) < reach
+        if not from_here.any():
+            continue
+        other = pairs[np.arange(len(pairs)), np.argmax(gap, axis=1)][from_here] - point
+        bearing = np.arctan2(-other[:, 1], other[:, 0])
+        if np.mean(np.abs(wrap_angle(bearing - middle)) < half_width) >= FACING:
+            return point
+    return None
 
 
 def _unit(direction: np.ndarray) -> np.ndarray:
@@ -286,14 +326,23 @@ class LinkedDON:
         return self.known_pivot / self.scale if self.known_pivot is not None else self.root_pivot
 
     def _find_pivot(self, points: np.ndarray) -> None:
-        """Unless given: the place where the moving tree's far ends keep coming back to
-        (`blob_ends`, `recurring_point`), re-solved with every frame's ends until
-        ``PIVOT_ENDS`` were seen, then fixed. The root's length is kept as joint positions,
-        not lengths, so a pivot that moves while it settles leaves nothing stale."""
+        """Unless given: the place where the moving tree's far ends keep coming back to,
+        facing where the root can point (`blob_ends`, `facing_point`), re-solved with
+        every frame's ends until ``PIVOT_ENDS`` were seen, then fixed. The root's length
+        is kept as joint positions, not lengths, so a pivot that moves while it settles
+        leaves no stale length; a pivot that moves more than the band leaves the pose
+        fitted about the old one untracked (the next fit searches the whole ranges)."""
         if self.known_pivot is None and len(self.ends) < PIVOT_ENDS:
             self.ends.extend(blob_ends(points))
             if len(self.ends) >= PIVOT_MIN_ENDS:
-                self.root_pivot = recurring_point(np.array(self.ends), self.band / 2)
+                found = facing_point(np.array(self.ends), self.band / 2, self.band,
+                                     pointing_range(self.reference_direction,
+                                                    self.joint_ranges[0]))
+                if found is not None:
+                    if (self.root_pivot is not None
+                            and np.hypot(*(found - self.root_pivot)) > self.band):
+                        self.tracking = False
+                    self.root_pivot = found
             if len(self.ends) >= PIVOT_ENDS:  # the joints were found from a rougher pivot
                 self.root_joints.clear()
                 for measured in self.measured:
@@ -304,13 +353,19 @@ class LinkedDON:
         pixels. The tip is the moving pixel farthest from the pivot; the joint along the
         way is the corner of the polyline pivot -> joint -> tip that best explains the
         pixels (`corner`). A corner is only a length when the polyline bends there by more
-        than ``BENT_DEG``: along a straight arm any point explains the pixels equally."""
+        than ``BENT_DEG`` (along a straight arm any point explains the pixels equally),
+        at least the band away from both ends."""
         start, link = pivot, 0
         while self.children[link]:
             joint = corner(points, start, tip, self.band)
             direction = _direction(joint - start)
             bend = wrap_angle(_direction(tip - joint) - direction)
             if abs(bend) < math.radians(BENT_DEG):
+                return
+            # A corner within the band of either end is no corner: a point that near an
+            # end, a pixel or two off the line, bends it by BENT_DEG. On the hand such
+            # corners put the wrist 6 px from the elbow (the forearm is about 40).
+            if min(math.dist(joint, start), math.dist(tip, joint)) < self.band:
                 return
             if link == 0:
                 self.root_joints.append(joint)
@@ -439,8 +494,7 @@ class LinkedDON:
         q, _ = self._search(points, pivot, lengths, self.q,
                             GATE_DEG if self.tracking else 360.0, SWEEPS, self.q)
         self.fits += 1
-        settled = self.known_pivot is not None or len(self.ends) >= PIVOT_ENDS
-        if settled and self.fits % RECHECK_EVERY == 0:
+        if self.fits % RECHECK_EVERY == 0:
             q = self._recheck(points, pivot, lengths, q)
         self.sizes.append(float(len(points)))
         self.q = q
