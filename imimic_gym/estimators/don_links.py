@@ -39,12 +39,19 @@ or where a moving link's pivot is. Decisions (each also noted where it acts):
   `RESTARTS` root angles across the whole ranges compete with the tracked pose, which a
   pose explaining `RECHECK_GAIN` more of the pixels replaces. Also while the pivot
   settles: the first lengths come from three measurements, and a pose fitted with them
-  can lock as wrongly as one about a wrong pivot.
-- Those two rules and the corner rule below, together, on development clips
-  (`benchmarks/don_links_dev_seeds.py`, here and at the commit before them), settled
-  RMSE per joint: chain-2 seeds 0-29 12.85/9.04 -> 4.65/5.56 deg, chain-3 seeds 0-19
-  23.51/24.09/30.36 -> 11.37/17.24/24.94, exp4-hand seeds 0-39 12.10/32.92/18.54 ->
-  12.07/23.54/17.56.
+  can lock as wrongly as one about a wrong pivot. A recheck due on a frame with under
+  `RECHECK_PIXELS` of the window's most moving pixels waits for a fuller one: on the 44
+  pixels of an arm starting to move, a search over the whole ranges flipped the elbow
+  by 100 degrees (development chain-2 clip 21), and the pose stayed flipped until the
+  next recheck.
+- The facing pivot, the dropped pose, the rechecks while settling and on fuller frames
+  and the corner rule below, together, on development clips
+  (`benchmarks/don_links_dev_seeds.py`, here and at commit 971e89b before them),
+  settled RMSE per joint: chain-2 seeds 0-29 12.85/9.04 -> 4.52/4.60 deg, chain-3 seeds
+  0-19 23.51/24.09/30.36 -> 10.42/15.52/22.46, exp4-hand seeds 0-39 12.10/32.92/18.54
+  -> 12.10/21.81/16.11. The fuller-frame rule's share, against commit af555f7 (the
+  others): 4.65/5.56 -> 4.52/4.60, 11.37/17.24/24.94 -> 10.42/15.52/22.46,
+  12.07/23.54/17.56 -> 12.10/21.81/16.11.
 - Link lengths are not known from the video a priori. The tip of the tree is the moving
   pixel farthest from the pivot; each joint is the corner of the polyline pivot -> joint
   -> tip that best explains the pixels (`corner`), measured only where the polyline
@@ -116,6 +123,7 @@ RECHECK_EVERY = 10  # fitted frames between searches of the whole ranges
 COARSE_STEP_DEG = 3.0  # their resolution, refined to `STEP_DEG` about the best
 RESTARTS = 6  # root angles those searches start from
 RECHECK_GAIN = 0.1  # how much more a pose found there must explain to replace the tracked
+RECHECK_PIXELS = 0.5  # share of the window's most moving pixels a frame needs for one
 STAY = 0.5  # score lost per degree a joint moves from its last angle
 APPEARANCE_MIN_LENGTH = 12.0  # working px: a shorter link is too few pixels to read
 
@@ -270,6 +278,7 @@ class LinkedDON:
         self.measured: list[deque[float]] = [deque(maxlen=LENGTH_MEMORY) for _ in range(self.n)]
         self.root_joints: deque[np.ndarray] = deque(maxlen=LENGTH_MEMORY)
         self.fits = 0
+        self.recheck_due = False  # a recheck waits for a frame with enough moving pixels
         # Before anything moved: the middle of each joint's range, the guess least far
         # from anywhere the arm can be; trust 0, as it is no reading.
         self.q = self.joint_ranges.mean(axis=1)
@@ -494,7 +503,12 @@ class LinkedDON:
         q, _ = self._search(points, pivot, lengths, self.q,
                             GATE_DEG if self.tracking else 360.0, SWEEPS, self.q)
         self.fits += 1
-        if self.fits % RECHECK_EVERY == 0:
+        self.recheck_due |= self.fits % RECHECK_EVERY == 0
+        # A whole-range search on a frame with few moving pixels (the arm starting or
+        # stopping) fits their noise: the recheck waits for a fuller frame.
+        window_most = max((m for m in self.sizes if m is not None), default=0.0)
+        if self.recheck_due and len(points) >= RECHECK_PIXELS * window_most:
+            self.recheck_due = False
             q = self._recheck(points, pivot, lengths, q)
         self.sizes.append(float(len(points)))
         self.q = q

@@ -81,21 +81,24 @@ def test_rendered_two_link_chain_is_followed_per_joint() -> None:
     assert rmse.tolist() == pytest.approx([0, 0], abs=3.5)
 
 
-def test_rendered_chain_with_the_shoulder_found_from_a_slow_start() -> None:
+@pytest.mark.parametrize("seed", [13, 21])
+def test_rendered_chain_with_the_shoulder_found_is_not_locked_wrong(seed: int) -> None:
     # Development clip 13 starts slowly: over its first frames the hand's end of the
-    # moving arm recurs more than the shoulder's. The pivot found there locked the
-    # shoulder 100 degrees off for a second (settled RMSE 38.6 degrees before the
-    # pivot had to face where the shoulder can point).
-    spec = get_scenario("chain-2", seed=13)
+    # moving arm recurs more than the shoulder's, and the pivot found there locked the
+    # shoulder 100 degrees off for a second (settled RMSE 38.6 and 11.7 degrees before
+    # the pivot had to face where the shoulder can point). On clip 21 a recheck on the
+    # 44 moving pixels of the arm starting to move flipped the elbow 100 degrees for
+    # ten frames (2.9 and 30.5 degrees before rechecks waited for a fuller frame).
+    spec = get_scenario("chain-2", seed=seed)
     clip = load_clip(spec, progress=False)
     don = LinkedDON(spec.link_parents, spec.joint_ranges, fps=clip.fps,
                     reference_direction=spec.reference_direction)
     angles = np.array([e.angles for e in don.run(clip.frames)])
     error = np.degrees(wrap_angle(angles[15:] - clip.truth.angles[15:]))
-    # Measured 1.9 and 3.1 degrees.
-    assert np.sqrt(np.mean(error**2, axis=0)).tolist() == pytest.approx([0, 0], abs=5.0)
+    # Measured 1.9 and 3.1 degrees (clip 13), 3.4 and 4.0 (clip 21).
+    assert np.sqrt(np.mean(error**2, axis=0)).tolist() == pytest.approx([0, 0], abs=5.5)
     shoulder = clip.truth.keypoints[:, 0].mean(axis=0)
-    assert np.hypot(*(don.pivot() * don.scale - shoulder)) < 8.0  # input px; measured 5.2
+    assert np.hypot(*(don.pivot() * don.scale - shoulder)) < 9.0  # input px
 
 
 def test_no_motion_black_frames_and_short_clips_give_finite_estimates() -> None:
