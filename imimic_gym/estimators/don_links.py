@@ -24,12 +24,11 @@ or where a moving link's pivot is. Decisions (each also noted where it acts):
   frames the arm often moves slowly, its tip recurs as much as the pivot end, and the
   densest place at the first solve lay 20-51 px off (mostly at the tip) on 27 of the
   first 30 development chain-2 clips; a pose fitted about it locked the shoulder 100
-  degrees off until the recheck.
-  A first pivot after `PIVOT_MIN_ENDS` ends, re-solved each frame until `PIVOT_ENDS`,
-  then fixed (and the lengths measured about the rougher one dropped). A pivot that
-  moves by more than the band while it settles drops the tracked pose: the next fit
-  searches the whole ranges, since a pose fitted about another point says nothing
-  about this one. The one-link pivot
+  degrees off until the recheck. A first pivot after `PIVOT_MIN_ENDS` ends, re-solved
+  each frame until `PIVOT_ENDS`, then fixed (and the lengths measured about the rougher
+  one dropped). A pivot that moves by more than the band while it settles drops the
+  tracked pose: the next fit searches the whole ranges, since a pose fitted about
+  another point says nothing about this one. The one-link pivot
   (`geometry.PivotEstimator`, the mode of crossing region axes) was tried and lands on
   the elbow's crossings, 20 px off on chain-2. Known bias: on chain-2 the found pivot
   sits about 5 px below the shoulder keypoint, where the arm leaves the torso's outline;
