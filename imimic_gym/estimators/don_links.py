@@ -25,10 +25,15 @@ or where a moving link's pivot is. Decisions (each also noted where it acts):
   densest place at the first solve lay 20-51 px off (mostly at the tip) on 27 of the
   first 30 development chain-2 clips; a pose fitted about it locked the shoulder 100
   degrees off until the recheck. A first pivot after `PIVOT_MIN_ENDS` ends, re-solved
-  each frame until `PIVOT_ENDS`, then fixed (and the lengths measured about the rougher
-  one dropped). A pivot that moves by more than the band while it settles drops the
-  tracked pose: the next fit searches the whole ranges, since a pose fitted about
-  another point says nothing about this one. The one-link pivot
+  each frame until `PIVOT_ENDS`, then fixed. The lengths measured while it settled are
+  kept: they were dropped once, when the first pivot was usually the hand, but a corner
+  needs the elbow bent by `BENT_DEG`, so on a straight arm the fit then sat idle for up
+  to 18 frames (development chain-2 clip 22); keeping them, development clips went
+  chain-2 4.52/4.60 -> 3.34/3.88 deg per joint, chain-3 10.42/15.52/22.46 ->
+  10.63/14.51/22.07, exp4-hand 12.10/21.81/16.11 -> 10.59/22.11/15.65
+  (`benchmarks/don_links_dev_seeds.py`). A pivot that moves by more than the band while
+  it settles drops the tracked pose: the next fit searches the whole ranges, since a
+  pose fitted about another point says nothing about this one. The one-link pivot
   (`geometry.PivotEstimator`, the mode of crossing region axes) was tried and lands on
   the elbow's crossings, 20 px off on chain-2. Known bias: on chain-2 the found pivot
   sits about 5 px below the shoulder keypoint, where the arm leaves the torso's outline;
@@ -338,8 +343,9 @@ class LinkedDON:
         facing where the root can point (`blob_ends`, `facing_point`), re-solved with
         every frame's ends until ``PIVOT_ENDS`` were seen, then fixed. The root's length
         is kept as joint positions, not lengths, so a pivot that moves while it settles
-        leaves no stale length; a pivot that moves more than the band leaves the pose
-        fitted about the old one untracked (the next fit searches the whole ranges)."""
+        leaves no stale length, and the measurements are kept when it is fixed; a pivot
+        that moves more than the band leaves the pose fitted about the old one untracked
+        (the next fit searches the whole ranges)."""
         if self.known_pivot is None and len(self.ends) < PIVOT_ENDS:
             self.ends.extend(blob_ends(points))
             if len(self.ends) >= PIVOT_MIN_ENDS:
@@ -351,10 +357,6 @@ class LinkedDON:
                             and np.hypot(*(found - self.root_pivot)) > self.band):
                         self.tracking = False
                     self.root_pivot = found
-            if len(self.ends) >= PIVOT_ENDS:  # the joints were found from a rougher pivot
-                self.root_joints.clear()
-                for measured in self.measured:
-                    measured.clear()
 
     def _measure_lengths(self, points: np.ndarray, pivot: np.ndarray, tip: np.ndarray) -> None:
         """Object regression without lengths: the tree's corners from this frame's moving
