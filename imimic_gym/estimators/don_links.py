@@ -507,8 +507,8 @@ class LinkedDON:
         self.recheck_due |= self.fits % RECHECK_EVERY == 0
         # A whole-range search on a frame with few moving pixels (the arm starting or
         # stopping) fits their noise: the recheck waits for a fuller frame.
-        window_most = max((m for m in self.sizes if m is not None), default=0.0)
-        if self.recheck_due and len(points) >= RECHECK_PIXELS * window_most:
+        if self.recheck_due and len(points) >= RECHECK_PIXELS * max(
+                (m for m in self.sizes if m is not None), default=0.0):
             self.recheck_due = False
             q = self._recheck(points, pivot, lengths, q)
         self.sizes.append(float(len(points)))
