@@ -19,7 +19,8 @@ How.
   colour, not a patch: it does not depend on where the pivot or the radius estimate sits
   along the link. A colour that reads nothing, or something else than DON, in 5 vouched
   frames running was learned from something else (a link first seen in part, blurred
-  into its background): it is learned again.
+  into its background): it is learned again. (`LinkedDON` counts only the frames with
+  no reading: its fit is often off by more than this layer.)
 - Match of a pixel: exp(-(d / SIGMA)^2), d the sum over RGB of absolute differences from
   the colour (under 0.1 counts as none). A ray's match is the mean along it, from 0.3 to
   0.95 radii from the pivot.
@@ -82,9 +83,16 @@ class LinkAppearance:
 
     Directions are radians, counter-clockwise with the image's y axis up; coordinates
     are working-resolution pixels (x right, y down), as in `geometry.py`.
+
+    Args:
+        disagree: how far (rad) this layer's reading may lie from a vouched one before
+            the frame counts against the colour (RELEARN such frames running and it is
+            learned anew); ``math.inf``: only vouched frames without a reading count,
+            for a caller whose vouched readings are often off by more (`LinkedDON`).
     """
 
-    def __init__(self) -> None:
+    def __init__(self, disagree: float = DISAGREE) -> None:
+        self.disagree = disagree
         self.reset()
 
     def reset(self) -> None:
@@ -111,13 +119,13 @@ class LinkAppearance:
             directions: (middle, half-width), rad, where the link can point; None: anywhere.
 
         A colour that fails RELEARN vouched frames running (no reading, or one more than
-        DISAGREE from DON's) was learned from something else: it is dropped and learned
+        ``disagree`` from DON's) was learned from something else: it is dropped and learned
         again from the next vouched frame.
         """
         vouched = read and trust >= VOUCH_TRUST
         angle = self._read(image, pivot, radius, prior, vouched, directions)
         if vouched and self.colour is not None:
-            agrees = angle is not None and abs(wrap_angle(angle - prior)) < DISAGREE
+            agrees = angle is not None and abs(wrap_angle(angle - prior)) < self.disagree
             self.disagreed = 0 if agrees else self.disagreed + 1
             if self.disagreed >= RELEARN:
                 self.colour, self.last, self.disagreed = None, None, 0

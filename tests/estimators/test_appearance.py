@@ -173,3 +173,23 @@ def test_a_colour_learned_from_something_else_is_learned_again() -> None:
                              True, 1.0) for a in range(40, 60, 2)]
     assert np.allclose(layer.colour[:3], SKIN, atol=25)
     assert error_deg(readings[-1], math.radians(58)) < 0.6
+
+
+@pytest.mark.parametrize("disagree", [None, math.inf])
+def test_vouched_readings_ten_degrees_off_relearn_the_colour_only_by_default(
+        disagree: float | None) -> None:
+    """The colour taught by a right reading, then vouched readings 10 degrees off the
+    bar (a fit about a pivot a few pixels off): by default, RELEARN such frames drop the
+    colour and the layer loses the bar; with ``disagree=math.inf`` (LinkedDON's) it keeps
+    reading it."""
+    layer = LinkAppearance() if disagree is None else LinkAppearance(disagree=disagree)
+    angles = range(40, 70, 2)
+    readings = [layer.update(bar(wall(), math.radians(a)), PIVOT, RADIUS,
+                             math.radians(a + (10 if k else 0)), True, 1.0)
+                for k, a in enumerate(angles)]
+    assert readings[0] is None  # the frame that teaches the colour
+    later = list(zip(readings[1:], angles[1:], strict=True))
+    if disagree is None:
+        assert any(r is None for r, _ in later)
+    else:
+        assert max(error_deg(r, math.radians(a)) for r, a in later) < 1.0
