@@ -36,9 +36,12 @@ or where a moving link's pivot is. Decisions (each also noted where it acts):
   pose fitted about another point says nothing about this one. The one-link pivot
   (`geometry.PivotEstimator`, the mode of crossing region axes) was tried and lands on
   the elbow's crossings, 20 px off on chain-2. Known bias: on chain-2 the found pivot
-  sits about 5 px below the shoulder keypoint, where the arm leaves the torso's outline;
-  refining it by the fit's score or by crossing the upper arm's lines was tried and
-  made the angles worse.
+  sits about 5 px below the shoulder keypoint, where the arm leaves the torso's outline.
+  Refining it by the fit's score made the angles worse. The least-squares crossing of
+  the root link's colour lines (the appearance layer's, 60 fitted frames) lies about 1
+  working px from the shoulder where the found pivot lies 3, but with the colour kept
+  (below) it made development chain-2 worse (2.14/2.72 -> 2.33/3.08 deg), and on the
+  hand, whose forearm's skin runs on into the fingers, it lies 1-10 px off the elbow.
 - A wrong lock must not last: every `RECHECK_EVERY` fitted frames, searches from
   `RESTARTS` root angles across the whole ranges compete with the tracked pose, which a
   pose explaining `RECHECK_GAIN` more of the pixels replaces. Also while the pivot
