@@ -30,8 +30,16 @@ How.
   static object of the link's colour) cannot pull the reading away. Where it does not
   (the link stalled, hidden, or among clutter that drags DON's trust down), within 24
   degrees of where this layer's own last two readings put the link now; after a frame
-  without a reading, nowhere until DON vouches again. Only where the joint can turn. A
-  best match under 0.25, or under 0.15 above the lower quartile's, is no reading.
+  without a reading, nowhere until DON vouches again, unless DON says it has lost the
+  link (below): then everywhere. Only where the joint can turn. A best match under 0.25,
+  or under 0.15 above the lower quartile's, is no reading.
+- Everywhere once DON has lost the link is DON's option (``search_when_lost``, off by
+  default): a forearm that comes out from behind the board and rests stays lost to the
+  motion layers until it moves (development clip 3 of `exp3-forearm-high`: held 12-19
+  degrees off over frames 88-100 with the forearm in view; within 1.2 with the option).
+  The risk is a colour learned partly from something else: on clip 18 it is half the
+  board's brown, and the search reads the board's edge (settled RMSE 9.5 -> 27.7 deg).
+  `DON` gives the figures for and against.
 - Direction. The best ray is a 2-degree guess. The direction comes from the straight line
   fitted to the matching pixels of a corridor 4 px either side of it (sideways offset
   against distance, weighted by the match): a line's direction does not depend on where
@@ -104,8 +112,8 @@ class LinkAppearance:
         self._rays_for: tuple[float, float, float] | None = None  # pivot x, y, radius
 
     def update(self, image: np.ndarray, pivot: np.ndarray, radius: float, prior: float,
-               read: bool, trust: float, directions: tuple[float, float] | None = None
-               ) -> float | None:
+               read: bool, trust: float, directions: tuple[float, float] | None = None,
+               lost: bool = False) -> float | None:
         """The link's direction (rad) in ``image`` ((h, w, 3) uint8, the working frame),
         or None where its colour is not seen (or not yet learned).
 
@@ -117,13 +125,15 @@ class LinkAppearance:
                 reading, not a held or predicted one).
             trust: DON's eta for the frame.
             directions: (middle, half-width), rad, where the link can point; None: anywhere.
+            lost: the caller has lost the link (`DON.hidden`): without a track of its own,
+                this layer searches everywhere the link can point, not nowhere.
 
         A colour that fails RELEARN vouched frames running (no reading, or one more than
         ``disagree`` from DON's) was learned from something else: it is dropped and learned
         again from the next vouched frame.
         """
         vouched = read and trust >= VOUCH_TRUST
-        angle = self._read(image, pivot, radius, prior, vouched, directions)
+        angle = self._read(image, pivot, radius, prior, vouched, directions, lost)
         if vouched and self.colour is not None:
             agrees = angle is not None and abs(wrap_angle(angle - prior)) < self.disagree
             self.disagreed = 0 if agrees else self.disagreed + 1
@@ -132,14 +142,15 @@ class LinkAppearance:
         return angle
 
     def _read(self, image: np.ndarray, pivot: np.ndarray, radius: float, prior: float,
-              vouched: bool, directions: tuple[float, float] | None) -> float | None:
+              vouched: bool, directions: tuple[float, float] | None, lost: bool
+              ) -> float | None:
         """`update` without the relearning: ``vouched`` is DON's reading ``prior``."""
         px, py = float(pivot[0]), float(pivot[1])
         if self.colour is None:
             if vouched:
                 self.colour = self._first_colour(image, px, py, radius, prior)
             return None
-        first, end = self._search(round(prior / STEP), vouched, directions)
+        first, end = self._search(round(prior / STEP), vouched, directions, lost)
         if end <= first:
             self.last = None
             return None
@@ -193,19 +204,21 @@ class LinkAppearance:
         core = difference >= np.median(difference[distinct])
         return (*np.median(link[core], axis=0).tolist(), 0.0)
 
-    def _search(self, prior: int, vouched: bool, directions: tuple[float, float] | None
-                ) -> tuple[int, int]:
+    def _search(self, prior: int, vouched: bool, directions: tuple[float, float] | None,
+                lost: bool) -> tuple[int, int]:
         """The rays to try, first .. end - 1, in grid steps counted from direction 0 and
         unwrapped to lie near ``prior`` (DON's direction, in grid steps): within NEAR of
         it where DON ``vouched`` for it; else within TRACK of where the last reading's
-        direction and turn rate put the link now (none after a frame without a reading).
-        Only where the link can point."""
+        direction and turn rate put the link now; after a frame without a reading, all
+        round where DON has ``lost`` the link, else none. Only where the link can point."""
         if vouched:
             first, end = prior - NEAR, prior + NEAR + 1
         elif self.last is not None:
             ahead = round((self.last + self.turn) / STEP)
             ahead = prior + (ahead - prior + TURN // 2) % TURN - TURN // 2
             first, end = ahead - TRACK, ahead + TRACK + 1
+        elif lost:
+            first, end = prior - TURN // 2, prior + TURN // 2
         else:
             return 0, 0
         if directions is not None and directions[1] < math.pi:

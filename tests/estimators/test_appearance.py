@@ -123,6 +123,29 @@ def test_without_don_the_layer_follows_its_own_track_and_lets_go_of_a_lost_link(
                      back) < 1.0
 
 
+def test_once_don_has_lost_the_link_the_layer_searches_everywhere_it_can_point() -> None:
+    """DON holds a stale 30 degrees and the layer has no track of its own; the bar shows
+    at 110 degrees. Only where DON says it has lost the link (hidden) does the layer look
+    that far, and still only where the joint can turn."""
+    stale, back = math.radians(30), math.radians(110)
+    directions = (math.radians(60), math.radians(70))  # -10 to 130 degrees
+    readings = {}
+    for lost in (False, True):
+        layer = LinkAppearance()
+        layer.update(bar(wall(), stale), PIVOT, RADIUS, stale, True, 1.0, directions)
+        layer.last = None  # as after a frame without a reading
+        readings[lost] = layer.update(bar(wall(), back), PIVOT, RADIUS, stale, False, 0.0,
+                                      directions, lost=lost)
+    assert readings[False] is None
+    assert error_deg(readings[True], back) < 1.0
+    narrow = (math.radians(40), math.radians(50))  # -10 to 90 degrees: 110 is out
+    layer = LinkAppearance()
+    layer.update(bar(wall(), stale), PIVOT, RADIUS, stale, True, 1.0, narrow)
+    layer.last = None
+    assert layer.update(bar(wall(), back), PIVOT, RADIUS, stale, False, 0.0, narrow,
+                        lost=True) is None
+
+
 def test_a_reading_where_the_joint_cannot_turn_is_none() -> None:
     layer = LinkAppearance()
     inside, outside = math.radians(60), math.radians(-30)
