@@ -7,10 +7,20 @@ frames and eta on them and on the others, and the median distance (input px) fro
 pivot DON found to the true elbow (person scenarios). Any DON keyword can be set with
 ``--param NAME=VALUE`` (repeatable); ``--pivot-given`` tells DON where the elbow is.
 
+``--compare FILE`` pairs this run clip by clip with an earlier ``--json FILE`` (same
+scenarios and seeds) and prints, per scenario, the mean change of settled RMSE with a
+95% bootstrap interval, how many clips got better and worse (by over 0.05 deg), and the
+largest changes. A clip's error is heavy-tailed (a wrong pivot or a lost link costs tens
+of degrees): a mean over 20 clips can move by a degree on one clip, so judge a change
+by the interval and the counts, on more seeds where they are close.
+
     .venv/bin/python benchmarks/don_dev_seeds.py                       # defaults
     .venv/bin/python benchmarks/don_dev_seeds.py --param trust_threshold=0.3 \\
         --scenarios exp3-forearm-low exp3-forearm-high
     .venv/bin/python benchmarks/don_dev_seeds.py --param gaussian=15 --param threshold=12
+    .venv/bin/python benchmarks/don_dev_seeds.py --seeds 0 80 --json /tmp/before.json
+    .venv/bin/python benchmarks/don_dev_seeds.py --seeds 0 80 \
+        --param search_when_lost=True --compare /tmp/before.json
 """
 
 from __future__ import annotations
@@ -82,6 +92,29 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, float]:
     return out
 
 
+def compare(rows: list[dict[str, Any]], before: list[dict[str, Any]], scenario: str,
+            resamples: int = 10_000) -> dict[str, Any]:
+    """This run's settled RMSE against ``before``'s on the same clips of ``scenario``:
+    mean before and after, the mean paired change (deg) and its 95% bootstrap interval
+    (seeded), clips better and worse by over 0.05 deg, and the three largest changes as
+    (seed, before, after)."""
+    earlier = {r["seed"]: r["rmse_deg_settled"] for r in before if r["scenario"] == scenario}
+    pairs = [(r["seed"], earlier[r["seed"]], r["rmse_deg_settled"]) for r in rows
+             if r["scenario"] == scenario and r["seed"] in earlier]
+    if not pairs:
+        raise SystemExit(f"--compare: the earlier run has no clip of {scenario} with these seeds")
+    seeds, old, new = (np.array(column) for column in zip(*pairs, strict=True))
+    change = new - old
+    means = change[np.random.default_rng(0).integers(0, len(change),
+                                                     (resamples, len(change)))].mean(axis=1)
+    largest = [i for i in np.argsort(-np.abs(change))[:3] if abs(change[i]) > 0.05]
+    return {"clips": len(change), "before": float(old.mean()), "after": float(new.mean()),
+            "change": float(change.mean()),
+            "interval": [float(v) for v in np.percentile(means, [2.5, 97.5])],
+            "better": int((change < -0.05).sum()), "worse": int((change > 0.05).sum()),
+            "largest": [(int(seeds[i]), float(old[i]), float(new[i])) for i in largest]}
+
+
 def parse_param(text: str) -> tuple[str, Any]:
     name, _, value = text.partition("=")
     if not name or not value:
@@ -105,6 +138,8 @@ def main() -> None:
                         help="tell DON the true elbow (person scenarios)")
     parser.add_argument("--processes", type=int, default=2, help="worker processes")
     parser.add_argument("--json", type=Path, default=None, help="also write the results here")
+    parser.add_argument("--compare", type=Path, default=None, metavar="FILE",
+                        help="pair the clips with an earlier --json FILE of the same seeds")
     args = parser.parse_args()
     first, end = args.seeds
     if end > FIRST_HELD_OUT_SEED:
@@ -125,11 +160,26 @@ def main() -> None:
                  if "pivot_error_px_median" in m else "")
         print(f"  {scenario:18s} settled RMSE {m['rmse_deg_settled']:6.2f} deg, eta "
               f"{m['mean_trust']:.2f}{occluded}{pivot}")
+    comparison = {}
+    if args.compare:
+        before = json.loads(args.compare.read_text())["rows"]
+        print(f"against {args.compare}, clip by clip:")
+        for scenario in args.scenarios:
+            c = comparison[scenario] = compare(rows, before, scenario)
+            low, high = c["interval"]
+            largest = ", ".join(f"{seed}: {old:.1f} -> {new:.1f}"
+                                for seed, old, new in c["largest"]) or "none"
+            print(f"  {scenario:18s} {c['before']:6.2f} -> {c['after']:6.2f} deg, change "
+                  f"{c['change']:+.2f} (95% {low:+.2f} to {high:+.2f}), {c['better']} of "
+                  f"{c['clips']} clips better, {c['worse']} worse; largest {largest}")
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps({"params": params, "pivot_given": args.pivot_given,
                                          "seeds": [first, end], "machine": machine(),
-                                         "results": results, "rows": rows}, indent=2) + "\n")
+                                         "results": results, "rows": rows,
+                                         **({"compare": {"against": str(args.compare),
+                                                         **comparison}}
+                                            if comparison else {})}, indent=2) + "\n")
 
 
 if __name__ == "__main__":
