@@ -46,6 +46,20 @@ Decisions where the paper is vague or inconsistent (each is also noted where it 
   regions start (`geometry.PivotEstimator`), and leaving out edges that slide sideways
   from one frame to the next (an occluder's sides: a turning link's slivers turn). The
   radius r (skeleton length) is the reach of the regions along the link.
+- Re-seeking the pivot (``reseek``, on). Each moving edge is followed from frame to frame;
+  one that keeps its direction for 6 frames (an occluder's side creeping too slowly to
+  count as sliding) leaves the pivot estimate and is not read as the link, and a second
+  pivot estimate, fed after agreement too, replaces the pivot when the recent lines fan
+  out from it over more directions (`geometry.LinkTracker`). Settled RMSE on development
+  clips, off -> on: seeds 0-79 (chosen there) `exp3-forearm-none` 3.26 -> 3.16 deg,
+  `exp3-forearm-low` 11.85 -> 11.33, `exp3-forearm-high` 19.40 -> 16.71,
+  `exp1-noisy-fast` 15.46 -> 13.92; seeds 80-159 (a check) 2.94 -> 2.81, 12.22 ->
+  10.88, 19.83 -> 16.98 (95% interval of the change -4.9 to -1.0), 12.45 -> 14.16 (-0.7
+  to +3.9; 34 clips worse, 14 better); `exp2-servo` and `default` within 0.01
+  (`benchmarks/don_dev_seeds.py --seeds 80 160 --param reseek=False --json F`, then
+  ``--compare F``). It also switches to a wrong pivot at times: final pivots over 15
+  input px off on `exp3-forearm-high` 14 -> 6 and 12 -> 7 of 80, but on
+  `exp3-forearm-low` 5 -> 10 and 6 -> 8. It costs about 5-10% of DON's time.
 - Location. s = the link's direction: the weighted mean axis of the regions that lie on
   a ray from the pivot. delta1_1 spans frames t-1 and t, so s lags by half a frame: the
   angle reported for frame t is s + v/2. A jump of more than `MAX_TURN` in one frame is
@@ -289,12 +303,16 @@ class DON:
             the joint can turn, not only near its own last reading. Off by default: it
             finds a forearm that comes out from behind an occluder and rests, but it
             also jumps to the occluder's edge where the colour was learned partly from
-            the occluder. Settled RMSE, off -> on: development seeds 0-79
-            `exp3-forearm-high` 19.40 -> 17.74 deg, `exp3-forearm-low` 11.85 -> 11.15
-            (better on 58 and 53 of 80 clips, worse on 9 and 4); held-out seeds 1000-1009
-            20.43 -> 26.85 and 17.18 -> 19.40 (worse on 5 and 3 of 10, by up to 32
-            degrees), `exp1-noisy-fast` 12.28 -> 8.92, `exp3-forearm-none` unchanged.
+            the occluder. Settled RMSE, off -> on, measured before ``reseek``:
+            development seeds 0-79 `exp3-forearm-high` 19.40 -> 17.74 deg,
+            `exp3-forearm-low` 11.85 -> 11.15 (better on 58 and 53 of 80 clips, worse on
+            9 and 4); seeds 80-159 19.83 -> 18.97 and 12.22 -> 11.99 (95% intervals of
+            the change both span 0; clips up to 34 degrees worse); held-out seeds
+            1000-1009 20.43 -> 26.85 and 17.18 -> 19.40 (worse on 5 and 3 of 10, by up to
+            32 degrees); `exp1-noisy-fast` better throughout (held-out 12.28 -> 8.92).
         min_area: fewest moving pixels (working resolution) that count as motion.
+        reseek: leave rigid edges out and replace a pivot that a second estimate explains
+            better (`geometry.LinkTracker`); False: the first pivot agreed is kept.
     """
 
     def __init__(
@@ -312,6 +330,7 @@ class DON:
         joint_range: tuple[float, float] | None = None,
         appearance: bool = True,
         search_when_lost: bool = False,
+        reseek: bool = True,
     ) -> None:
         self.motion = MotionMask(window, gaussian, threshold, working_height)
         self.appearance = LinkAppearance() if appearance else None
@@ -321,7 +340,7 @@ class DON:
         self.trust_threshold, self.min_area = trust_threshold, min_area
         self.torque_model = TorqueModel(robot) if robot is not None else None
         self.joint_range = joint_range
-        self.search_when_lost = search_when_lost
+        self.search_when_lost, self.reseek = search_when_lost, reseek
         self.reset()
 
     def reset(self) -> None:
@@ -521,7 +540,8 @@ class DON:
         if mask is None:
             pivot = None if self.known_pivot is None else self.known_pivot / self.scale
             self.link = LinkTracker(self.reference_direction, pivot, self.joint_range,
-                                    self.min_area, reach_back=REACH_BACK_PX)
+                                    self.min_area, reach_back=REACH_BACK_PX,
+                                    reseek=self.reseek)
             return None
         self.last_mask = mask
         area = cv2.countNonZero(mask)

@@ -22,6 +22,16 @@ __all__ = ["LinkTracker", "PivotEstimator", "component_lines", "pointing_range"]
 # An edge that slid sideways by at least SHIFT_PX while turning less than TURN_DEG since the
 # last frame is translating (an occluder's side), not turning about a pivot.
 SHIFT_PX, TURN_DEG = 1.5, 2.0
+# An edge followed this many frames running (each frame's line parallel to the last's,
+# within TURN_DEG) that has turned less than TURN_DEG in all is rigid: an occluder's side
+# moving too slowly to slide by SHIFT_PX a frame, or the body swaying; a turning link's
+# slivers turn with it.
+RIGID_FRAMES = 6
+# Re-seeking the pivot: a second estimate, fed with every moving edge that is not sliding
+# or rigid, replaces the pivot when it lies RESEEK_PX (working px) or more away and the
+# recent lines fan out from it over at least RESEEK_GAIN times as many BEARING_BIN_DEG
+# bins of bearing as from the pivot, and at least RESEEK_BINS.
+RESEEK_PX, RESEEK_GAIN, RESEEK_BINS, BEARING_BIN_DEG = 6.0, 1.5, 5, 4.0
 RANGE_MARGIN_DEG = 20.0  # how far past its joint range a region may still be the link
 
 
@@ -140,18 +150,37 @@ class PivotEstimator:
                  reach_back: float | None = None) -> None:
         self.directions, self.reach_back = directions, reach_back
         self.lines: deque[np.ndarray] = deque(maxlen=memory)
+        self.tracks: deque[int | None] = deque(maxlen=memory)  # each line's edge, if known
         self.seek_every, self.refine_every = seek_every, refine_every
         self.agree_px = agree_px
         self._new, self._stale = 0, False
         self._last: np.ndarray | None = None
         self._candidate: np.ndarray | None = None
 
-    def add_line(self, line: np.ndarray) -> None:
-        """``line``: a row of `component_lines` (centre, direction, length, elongation)."""
+    def add_line(self, line: np.ndarray, track: int | None = None) -> None:
+        """``line``: a row of `component_lines` (centre, direction, length, elongation);
+        ``track``: the edge it was followed along (`LinkTracker`), if any."""
         self.lines.append(line)
+        self.tracks.append(track)
         self._new += 1
         if self._new >= (self.seek_every if self._last is None else self.refine_every):
             self._stale, self._new = True, 0
+
+    def withdraw(self, track: int) -> None:
+        """Forget every line of edge ``track`` (found rigid: it was never the link)."""
+        if track not in self.tracks:
+            return
+        kept = [(line, t) for line, t in zip(self.lines, self.tracks, strict=True)
+                if t != track]
+        self.lines = deque((line for line, _ in kept), maxlen=self.lines.maxlen)
+        self.tracks = deque((t for _, t in kept), maxlen=self.tracks.maxlen)
+
+    def take_over(self, other: PivotEstimator, pivot: np.ndarray) -> None:
+        """Adopt ``other``'s lines and its agreed ``pivot`` (re-seeking, `LinkTracker`)."""
+        self.lines, self.tracks = deque(other.lines, maxlen=self.lines.maxlen), deque(
+            other.tracks, maxlen=self.tracks.maxlen)
+        self._last, self._candidate = pivot.copy(), None
+        self._new, self._stale = 0, False
 
     def provisional(self) -> np.ndarray | None:
         """Before a first pivot is agreed: the last solve's, awaiting the next to agree."""
@@ -242,12 +271,13 @@ def _densest(points: np.ndarray, cell: float = 3.0) -> np.ndarray:
     return (np.array([column, best - (column << 21)]) + 0.5) * cell
 
 
-def _slide_from(line: np.ndarray, previous: np.ndarray) -> int | None:
-    """The line of ``previous`` that ``line`` slid sideways from since the last frame, if
-    any: the nearest one (across) nearly parallel to it (within TURN_DEG), of a similar
-    length and overlapping it along the axis, if that lies SHIFT_PX or more off it across.
-    The nearest, not any: a turning link's leading sliver has last frame's trailing one
-    parallel beside it, one link width away, and last frame's leading one just behind it."""
+def _follow(line: np.ndarray, previous: np.ndarray) -> tuple[int | None, float]:
+    """The line of ``previous`` (last frame's) that ``line`` continues, if any, and how
+    far (px) it lies across from it: the nearest one (across) nearly parallel to it
+    (within TURN_DEG), of a similar length and overlapping it along the axis. ``line`` slid
+    sideways from it if that is SHIFT_PX or more. The nearest, not any: a turning link's
+    leading sliver has last frame's trailing one parallel beside it, one link width away,
+    and last frame's leading one just behind it."""
     # Scalars: a frame has a few lines, and numpy's per-call cost on arrays that short is
     # many times the arithmetic.
     cx, cy, dx, dy, length = line[:5].tolist()
@@ -260,7 +290,7 @@ def _slide_from(line: np.ndarray, previous: np.ndarray) -> int | None:
                 and across < 3 * length and abs(ox * dx + oy * dy) < 1.7 * length
                 and across < nearest_across):
             nearest, nearest_across = index, across
-    return nearest if nearest_across > SHIFT_PX else None
+    return nearest, nearest_across
 
 
 class LinkTracker:
@@ -281,11 +311,34 @@ class LinkTracker:
             soon on their whole-object masks' axes locked a worse pivot (development
             clips 0-9, MOG2 settled RMSE: `exp2-servo` 4.0 against 1.1 deg, and worse on
             each of the six scenarios).
+        reseek: follow each moving edge from frame to frame, leave rigid ones
+            (`RIGID_FRAMES`) out of the pivot and the link, and replace an agreed pivot
+            that a second estimate explains worse (below). DON sets it; the baselines'
+            whole-object masks have no edges to follow.
+
+    Re-seeking (``reseek``). A pivot, once agreed, was kept for good, and the first one
+    agreed is the one most often wrong: on development clips of `exp3-forearm-high` the
+    final pivot was over 15 input px from the elbow on 14 of 80 clips, mostly at a bottom
+    corner of the board, where the extensions of its slowly moving sides cross the
+    forearm's lines. Two changes. (1) An edge that stays parallel to itself for
+    RIGID_FRAMES frames is not a turning link: its lines leave the pivot estimate (all of
+    them, back to where it was first seen) and are not read as the link. (2) A second
+    `PivotEstimator` takes every non-sliding, non-rigid edge, before the pivot is agreed
+    and after (the first then takes only the link's), and is solved once the first has
+    agreed; where its pivot lies RESEEK_PX or more from the current one, the two are
+    scored, once per solve, on the last 40 such lines: over how many
+    BEARING_BIN_DEG bins of bearing the lines lying along rays from the point (as
+    `measure` accepts them, without the radius and last-direction gates) fan out. A
+    turning link's lines fan out from its pivot; a still edge's, or a board side's, all
+    point one way. The second replaces the first when it scores RESEEK_GAIN times as
+    high and at least RESEEK_BINS. Chosen on development seeds 0-79 and checked on
+    80-159 (`benchmarks/don_dev_seeds.py --compare`): see `don.py` for the figures.
     """
 
     def __init__(self, reference_direction: float = 0.0, pivot: np.ndarray | None = None,
                  joint_range: tuple[float, float] | None = None, min_area: int = 12,
-                 reach_back: float | None = None, seek_every: int = 3) -> None:
+                 reach_back: float | None = None, seek_every: int = 3,
+                 reseek: bool = False) -> None:
         self.reference_direction, self.known_pivot = reference_direction, pivot
         self.joint_range, self.min_area = joint_range, min_area
         self.reach_back = reach_back
@@ -301,6 +354,16 @@ class LinkTracker:
         self.radius: float | None = None
         self._radius_pivot: np.ndarray | None = None
         self.lost_for = 0
+        self.reseek = reseek and pivot is None
+        # Per line of the last `lines` call: (edge id, its direction (dx, dy) when first
+        # seen, frames followed).
+        self._edges: list[tuple[int, float, float, int]] = []
+        self._edge_count = 0
+        self._shadow = PivotEstimator(directions=self.directions, reach_back=reach_back,
+                                      seek_every=seek_every)
+        self._recent: deque[np.ndarray] = deque(maxlen=40)
+        self._compared: np.ndarray | None = None  # the second estimate's last solve weighed
+        self.reseeks = 0  # how often the pivot was replaced
 
     def pivot(self) -> np.ndarray | None:
         """The pivot in working pixels: the known one, else the estimate (None until the
@@ -315,13 +378,19 @@ class LinkTracker:
         lines = component_lines(mask, self.min_area)
         # An edge slid sideways (an occluder's side) when it did so in two frames running:
         # once can be the chance shape of a turning link's merged slivers.
-        slid = [_slide_from(line, self._previous_lines) for line in lines]
+        follows = [_follow(line, self._previous_lines) for line in lines]
+        slid = [k if across > SHIFT_PX else None for k, across in follows]
         self.sliding = np.array([k is not None and bool(self._slid[k]) for k in slid], bool)
         self._slid = np.array([k is not None for k in slid], bool)
+        edges: list[int | None] = [None] * len(lines)
+        if self.reseek:
+            edges = self._follow_edges(lines, [k for k, _ in follows])
         if self.known_pivot is None and self.pivots.pivot() is None:
-            for line, sliding in zip(lines, self.sliding, strict=True):
+            for line, sliding, edge in zip(lines, self.sliding, edges, strict=True):
                 if line[5] > 1.4 and line[4] > 3.0 and not sliding:
-                    self.pivots.add_line(line)
+                    self.pivots.add_line(line, edge)
+        if self.reseek:
+            self._seek_again(lines, edges)
         self._previous_lines = lines
         pivot = self.pivot()
         if pivot is not None and (self._radius_pivot is None
@@ -329,8 +398,71 @@ class LinkTracker:
             self.radius, self._radius_pivot = None, pivot  # r was measured from elsewhere
         return lines
 
+    def _follow_edges(self, lines: np.ndarray, previous: list[int | None]) -> list[int]:
+        """Each line's edge id, carried on from the line of the last frame it continues
+        (``previous``, `_follow`), else new. A rigid edge (`RIGID_FRAMES`) joins the
+        sliding ones in ``self.sliding`` and leaves both pivot estimates."""
+        edges, ids = [], []
+        for line, k in zip(lines.tolist(), previous, strict=True):
+            if k is None:
+                self._edge_count += 1
+                edges.append((self._edge_count, line[2], line[3], 1))
+            else:
+                edge, dx, dy, frames = self._edges[k]
+                edges.append((edge, dx, dy, frames + 1))
+            edge, dx, dy, frames = edges[-1]
+            ids.append(edge)
+            turned = abs(dx * line[3] - dy * line[2])  # sin of the turn since first seen
+            if frames >= RIGID_FRAMES and turned < math.sin(math.radians(TURN_DEG)):
+                self.sliding[len(ids) - 1] = True
+                self.pivots.withdraw(edge)
+                self._shadow.withdraw(edge)
+        self._edges = edges
+        return ids
+
+    def _seek_again(self, lines: np.ndarray, edges: list[int | None]) -> None:
+        """Feed the second pivot estimate and replace the pivot where it explains the
+        recent lines better (see the class docstring)."""
+        for line, sliding, edge in zip(lines, self.sliding, edges, strict=True):
+            if line[5] > 1.4 and line[4] > 3.0 and not sliding:
+                self._shadow.add_line(line, edge)
+                self._recent.append(line)
+        current = self.pivots.pivot()
+        if current is None:  # until then the second estimate sees the first's lines
+            return
+        candidate = self._shadow.pivot()
+        # Once per solve of the second estimate (it returns the same array until then).
+        if candidate is None or candidate is self._compared:
+            return
+        self._compared = candidate
+        if np.hypot(*(candidate - current)) < RESEEK_PX:
+            return
+        if self._fan(candidate) >= max(RESEEK_BINS, RESEEK_GAIN * self._fan(current)):
+            self.pivots.take_over(self._shadow, candidate)
+            self.reseeks += 1
+
+    def _fan(self, point: np.ndarray) -> int:
+        """Over how many BEARING_BIN_DEG bins of bearing from ``point`` the recent lines
+        that lie along rays from it (as `measure` accepts the link's, without its radius
+        and last-direction gates) spread."""
+        px, py = float(point[0]), float(point[1])
+        bins = set()
+        for cx, cy, dx, dy, length, _, _ in self._recent:
+            ox, oy = cx - px, cy - py
+            distance = math.hypot(ox, oy)
+            if not (abs(ox * dy - oy * dx) < max(4.0, 0.25 * distance) and distance > 2.0):
+                continue
+            if self.reach_back is not None and not distance - 1.7 * length > -self.reach_back:
+                continue
+            bearing = math.atan2(-oy, ox)
+            if self.directions is not None and not abs(
+                    wrap_angle(bearing - self.directions[0])) < self.directions[1]:
+                continue
+            bins.add(math.floor(math.degrees(bearing) / BEARING_BIN_DEG))
+        return len(bins)
+
     def _sliding(self, lines: np.ndarray) -> np.ndarray:
-        """Which of ``lines`` slid sideways in the last two frames (`_slide_from`): the
+        """Which of ``lines`` slid sideways in the last two frames (`_follow`; or are rigid): the
         flags `lines` computed, if these are its lines; else none."""
         return self.sliding if lines is self._previous_lines else np.zeros(len(lines), bool)
 
@@ -401,8 +533,10 @@ class LinkTracker:
             return None
         self.lost_for = 0
         if self.known_pivot is None and self.pivots.pivot() is not None:
+            edges = ([edge for edge, *_ in self._edges] if self.reseek
+                     and lines is self._previous_lines else [None] * len(lines))
             for index, *_ in kept:
-                self.pivots.add_line(lines[index])
+                self.pivots.add_line(lines[index], edges[index])
         mean = math.atan2(sum(weight * math.sin(angle) for _, angle, weight, _, _ in kept),
                           sum(weight * math.cos(angle) for _, angle, weight, _, _ in kept))
         reach = max(distance + 1.7 * length for *_, distance, length in kept)

@@ -1,13 +1,19 @@
 """`component_lines` against regions with known moments and against OpenCV's own
 labelling and moments of the whole mask."""
 
+import itertools
 import math
 
 import cv2
 import numpy as np
 import pytest
 
-from imimic_gym.estimators.geometry import LinkTracker, PivotEstimator, component_lines
+from imimic_gym.estimators.geometry import (
+    RIGID_FRAMES,
+    LinkTracker,
+    PivotEstimator,
+    component_lines,
+)
 
 
 def test_component_lines_give_known_centres_areas_and_axes_in_label_order() -> None:
@@ -140,20 +146,64 @@ def test_an_edge_sliding_sideways_does_not_feed_the_pivot() -> None:
     assert len(tracker.pivots.lines) == 2
 
 
+def test_an_edge_creeping_too_slowly_to_slide_is_rigid_and_leaves_the_pivot() -> None:
+    """A vertical strip moving 1 px right per frame (an occluder's side, under SHIFT_PX
+    a frame) never slides, so every line fed the pivot. Followed from frame to frame, it
+    has not turned in RIGID_FRAMES frames: rigid, its lines leave the pivot estimate and
+    it is not read as the link."""
+    for reseek in (False, True):
+        tracker = LinkTracker(reach_back=2.0, reseek=reseek)
+        flagged = []
+        for frame in range(RIGID_FRAMES + 2):
+            mask = np.zeros((120, 160), dtype=np.uint8)
+            mask[20:80, 40 + frame:43 + frame] = 255
+            tracker.lines(mask)
+            flagged.append(bool(tracker.sliding.any()))
+        if reseek:
+            assert flagged == [False] * (RIGID_FRAMES - 1) + [True] * 3
+            assert len(tracker.pivots.lines) == 0
+        else:
+            assert not any(flagged) and len(tracker.pivots.lines) == RIGID_FRAMES + 2
+
+
+def _turning_bar(theta_deg: float, pivot: tuple[int, int] = (80, 90)) -> np.ndarray:
+    """A 7 px thick, 40 px long bar from ``pivot`` at ``theta_deg`` (CCW, image up)."""
+    image = np.zeros((120, 160), dtype=np.uint8)
+    theta = math.radians(theta_deg)
+    tip = (pivot[0] + 40 * math.cos(theta), pivot[1] - 40 * math.sin(theta))
+    cv2.line(image, pivot, (round(tip[0]), round(tip[1])), 255, thickness=7)
+    return image
+
+
+def test_a_wrong_pivot_gives_way_to_the_one_the_link_turns_about() -> None:
+    """An agreed pivot 64 px off (as a board's corner was), and a bar swinging between
+    40 and 120 degrees about (80, 90): the second estimate finds the bar's pivot, the
+    bar's slivers fan out from it and not from the first, and it takes over. Without
+    re-seeking the wrong pivot stays."""
+    wrong, right = np.array([120.0, 40.0]), np.array([80.0, 90.0])
+    angles = [*range(40, 120, 4), *range(120, 40, -4)] * 2
+    for reseek in (False, True):
+        tracker = LinkTracker(reach_back=2.0, reseek=reseek)
+        tracker.pivots._last = wrong.copy()  # agreed earlier, wrongly
+        for before, after in itertools.pairwise(angles):
+            tracker.lines(cv2.absdiff(_turning_bar(after), _turning_bar(before)))
+        if reseek:
+            assert tracker.reseeks >= 1
+            # The slivers of a 7 px bar lie a few px beside its axis: 5 px, measured.
+            assert np.hypot(*(tracker.pivot() - right)) < 8.0
+        else:
+            assert np.array_equal(tracker.pivot(), wrong)
+
+
+@pytest.mark.parametrize("reseek", [False, True])
 @pytest.mark.parametrize("degrees_per_frame", [1.5, 4.0])
-def test_slivers_of_a_turning_bar_do_not_slide(degrees_per_frame: float) -> None:
+def test_slivers_of_a_turning_bar_do_not_slide(degrees_per_frame: float, reseek: bool) -> None:
     """A thick bar turning about one point: the difference of consecutive frames is a
     leading and a trailing sliver, each with last frame's trailing one parallel a bar's
-    width away when the turn is slow. None of them counts as a sliding edge, and their
-    lines feed the pivot."""
-    def bar(theta_deg: float) -> np.ndarray:
-        image = np.zeros((120, 160), dtype=np.uint8)
-        theta = math.radians(theta_deg)
-        tip = (80 + 40 * math.cos(theta), 90 - 40 * math.sin(theta))
-        cv2.line(image, (80, 90), (round(tip[0]), round(tip[1])), 255, thickness=7)
-        return image
-
-    tracker = LinkTracker(reach_back=2.0)
+    width away when the turn is slow. None of them counts as a sliding (or rigid) edge,
+    and their lines feed the pivot."""
+    bar = _turning_bar
+    tracker = LinkTracker(reach_back=2.0, reseek=reseek)
     flagged = fed = 0
     for frame in range(1, 8):
         angle = 40 + degrees_per_frame * frame
