@@ -82,9 +82,36 @@ def render(load, table) -> str:
   (no better than DON's: the ends lie 5-6 px from the elbow, the least squares pulled
   good pivots away); sampling the full-resolution frame (worse on the person clips and
   the servo); searching the whole joint range for a lost link (worse on
-  `exp3-forearm-none` and `-low`); anchoring the search on every reading of DON's, not
+  `exp3-forearm-none` and `-low`; now an option, below); anchoring the search on every reading of DON's, not
   only those with eta at least 0.8 (`exp3-forearm-none` 2.9 -> 5.0); keeping the
   reading out of DON's own state (mixed).
+
+  The round of re-seeking (`geometry.LinkTracker`, `DON(reseek=True)`; chosen on
+  development clips 0-79, checked on 80-159 with `benchmarks/don_dev_seeds.py --compare`,
+  which pairs two runs clip by clip and gives a bootstrap interval of the change). The
+  wrong pivots left were mostly at a bottom corner of the board: its sides, creeping
+  under 1.5 px a frame, never counted as sliding, and their extensions crossed the
+  forearm's lines there; once agreed, a pivot was kept for good. Now each moving edge is
+  followed from frame to frame, and one that keeps its direction for 6 frames leaves the
+  pivot estimate and is not read as the link; and a second pivot estimate replaces the
+  agreed one when the recent lines fan out from it over 1.5 times as many directions.
+  Development settled RMSE, seeds 0-79 / 80-159, before -> after: `exp3-forearm-high`
+  19.40 -> 16.71 / 19.83 -> 16.98, `exp3-forearm-low` 11.85 -> 11.33 / 12.22 -> 10.88,
+  `exp3-forearm-none` 3.26 -> 3.16 / 2.94 -> 2.81, `exp1-noisy-fast` 15.46 -> 13.92 /
+  12.45 -> 14.16 (more clips worse than better in both), `exp2-servo` and `default`
+  within 0.01. Tried in that round and not kept: withdrawing the earlier lines of an
+  edge once it slides (mixed); one line per edge in the pivot's memory (worse
+  everywhere, the servo 0.42 -> 0.85); a crossing only within half a region's length of
+  its near end (worse); re-seeking scored by the count of lines explained, or without
+  leaving rigid edges out (the board's sides won: more wrong pivots); rigid after 4
+  frames (`exp2-servo` 0.42 -> 0.47); a slower second estimate, re-solved every 40 lines
+  (mixed, no cheaper). Also tried: searching the whole joint range for the link's
+  colour once DON has called it hidden. It finds a forearm that comes out from behind
+  the board and rests, but jumps to the board's edge where the colour was learned
+  partly from the board; on development clips 0-79 it helped, on 80-159 and on the
+  held-out clips it lost as often as it won, by up to 34 degrees. It is
+  `DON(search_when_lost=True)`, off.
+
   Where the rest of the error is, on development clips 0-{sources['seeds'] - 1} (command:
   `.venv/bin/python benchmarks/don_error_sources.py --json
   benchmarks/results/don_error_sources.json`; share of the squared error by DON's state

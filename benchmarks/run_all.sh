@@ -11,7 +11,7 @@ mkdir -p benchmarks/results
 "$BIN/python" benchmarks/step_profile.py --json benchmarks/results/step_profile.json
 "$BIN/imimic" bench don --json benchmarks/results/don.json
 "$BIN/imimic" eval --scenario exp2-servo default exp3-forearm-none exp3-forearm-low \
-    exp3-forearm-high exp1-noisy-fast --estimator don mog2 camshift --episodes 10 \
+    exp3-forearm-high exp1-noisy-fast --estimator don don-paper mog2 camshift --episodes 10 \
     --json benchmarks/results/eval.json
 "$BIN/imimic" eval --scenario exp2-servo default exp3-forearm-none exp3-forearm-low \
     exp3-forearm-high exp1-noisy-fast --estimator don \

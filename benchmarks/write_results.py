@@ -221,8 +221,8 @@ line with the paper's "works above 50%".
 ### Accuracy on held-out clips
 
 Command: `.venv/bin/imimic eval --scenario exp2-servo default exp3-forearm-none
-exp3-forearm-low exp3-forearm-high exp1-noisy-fast --estimator don mog2 camshift
---episodes {episodes} --json benchmarks/results/eval.json`
+exp3-forearm-low exp3-forearm-high exp1-noisy-fast --estimator don don-paper mog2
+camshift --episodes {episodes} --json benchmarks/results/eval.json`
 
 Estimator-only (no robot), clip seeds {first_seed}-{first_seed + episodes - 1} (tests and
 development use seeds below 1000), 150 frames each, means over the clips. "Settled" leaves
@@ -363,9 +363,13 @@ Right:
 Wrong:
 - `ta_chi.mp4` (the whole body moves, both arms at once): DON's model, one link turning about a
   fixed pivot, does not hold. For {tai['first_tracked_frame']} of {tai['frames']} frames it has no pivot and outputs the
-  axis of the whole moving body (the robot jumps between a few poses); once it settles on a pivot
-  it is on the upper body, with the "link" drawn down the body's side or out sideways while the
-  arms are raised overhead. The arms are never tracked.
+  axis of the whole moving body (the robot jumps between a few poses). Its pivot lands on the
+  upper body; before re-seeking (`DON(reseek=True)`) it stayed there, with the "link" drawn down
+  the body's side or out sideways while the arms were raised overhead. Now no place explains
+  the moving edges for long, and the pivot moves six times in the clip (input px (239, 100) at
+  frame 90, (205, 74) at 120, (170, 81) at 210, (163, 162) at 270, (160, 19) at the end;
+  printed by running DON on the clip, not looked at frame by frame). The arms are never
+  tracked.
 - `slp_test_video.mp4` with defaults: the pivot lands near the top right of the frame, among the
   string lights (why there was not traced), so the drawn link runs from there down across the frame;
   the angle ({slp['angle_min_deg']:.0f} to {slp['angle_max_deg']:.0f} degrees) moves when the hand moves but does not measure the forearm.
