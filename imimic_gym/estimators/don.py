@@ -51,15 +51,15 @@ Decisions where the paper is vague or inconsistent (each is also noted where it 
   count as sliding) leaves the pivot estimate and is not read as the link, and a second
   pivot estimate, fed after agreement too, replaces the pivot when the recent lines fan
   out from it over more directions (`geometry.LinkTracker`). Settled RMSE on development
-  clips, off -> on: seeds 0-79 (chosen there) `exp3-forearm-none` 3.26 -> 3.16 deg,
-  `exp3-forearm-low` 11.85 -> 11.33, `exp3-forearm-high` 19.40 -> 16.71,
-  `exp1-noisy-fast` 15.46 -> 13.92; seeds 80-159 (a check) 2.94 -> 2.81, 12.22 ->
-  10.88, 19.83 -> 16.98 (95% interval of the change -4.9 to -1.0), 12.45 -> 14.16 (-0.7
-  to +3.9; 34 clips worse, 14 better); `exp2-servo` and `default` within 0.01
+  clips, off -> on: seeds 0-79 (chosen there) `exp3-forearm-none` 3.26 -> 3.59 deg (one
+  clip 2.0 -> 27.1), `exp3-forearm-low` 11.85 -> 9.75, `exp3-forearm-high` 19.40 ->
+  16.25, `exp1-noisy-fast` 15.46 -> 13.44; seeds 80-159 (a check) 2.94 -> 2.90, 12.22 ->
+  9.99 (95% interval of the change -3.9 to -0.6), 19.83 -> 16.76 (-5.0 to -1.3), 12.45
+  -> 11.92 (-2.7 to +1.3); `exp2-servo` and `default` within 0.01
   (`benchmarks/don_dev_seeds.py --seeds 80 160 --param reseek=False --json F`, then
-  ``--compare F``). It also switches to a wrong pivot at times: final pivots over 15
-  input px off on `exp3-forearm-high` 14 -> 6 and 12 -> 7 of 80, but on
-  `exp3-forearm-low` 5 -> 10 and 6 -> 8. It costs about 5-10% of DON's time.
+  ``--compare F``). Final pivots over 15 input px from the elbow, of 80 clips, 0-79 /
+  80-159: `exp3-forearm-high` 14 -> 2 / 12 -> 5, `exp3-forearm-low` 5 -> 4 / 6 -> 3,
+  `exp1-noisy-fast` 9 -> 3 / 5 -> 3. It costs about 5-10% of DON's time.
 - Location. s = the link's direction: the weighted mean axis of the regions that lie on
   a ray from the pivot. delta1_1 spans frames t-1 and t, so s lags by half a frame: the
   angle reported for frame t is s + v/2. A jump of more than `MAX_TURN` in one frame is

@@ -32,6 +32,11 @@ RIGID_FRAMES = 6
 # recent lines fan out from it over at least RESEEK_GAIN times as many BEARING_BIN_DEG
 # bins of bearing as from the pivot, and at least RESEEK_BINS.
 RESEEK_PX, RESEEK_GAIN, RESEEK_BINS, BEARING_BIN_DEG = 6.0, 1.5, 5, 4.0
+# The recent lines the two are scored on: twice a pivot estimate's memory. Over 40, a
+# few seconds of the body swaying (`exp1-noisy-fast`) made the shoulder outscore a right
+# elbow, and the pivot flipped between them (development clips 0-79 and 80-159:
+# `exp1-noisy-fast` 13.92 -> 13.44 and 14.16 -> 11.92 deg with 80).
+RESEEK_MEMORY = 80
 RANGE_MARGIN_DEG = 20.0  # how far past its joint range a region may still be the link
 
 
@@ -326,7 +331,7 @@ class LinkTracker:
     `PivotEstimator` takes every non-sliding, non-rigid edge, before the pivot is agreed
     and after (the first then takes only the link's), and is solved once the first has
     agreed; where its pivot lies RESEEK_PX or more from the current one, the two are
-    scored, once per solve, on the last 40 such lines: over how many
+    scored, once per solve, on the last RESEEK_MEMORY such lines: over how many
     BEARING_BIN_DEG bins of bearing the lines lying along rays from the point (as
     `measure` accepts them, without the radius and last-direction gates) fan out. A
     turning link's lines fan out from its pivot; a still edge's, or a board side's, all
@@ -361,7 +366,7 @@ class LinkTracker:
         self._edge_count = 0
         self._shadow = PivotEstimator(directions=self.directions, reach_back=reach_back,
                                       seek_every=seek_every)
-        self._recent: deque[np.ndarray] = deque(maxlen=40)
+        self._recent: deque[np.ndarray] = deque(maxlen=RESEEK_MEMORY)
         self._compared: np.ndarray | None = None  # the second estimate's last solve weighed
         self.reseeks = 0  # how often the pivot was replaced
 
