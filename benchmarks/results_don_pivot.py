@@ -95,17 +95,23 @@ def render(load, table) -> str:
   followed from frame to frame, and one that keeps its direction for 6 frames leaves the
   pivot estimate and is not read as the link; and a second pivot estimate replaces the
   agreed one when the recent lines fan out from it over 1.5 times as many directions.
+  The two pivots are scored on the last 80 such lines: over 40, a few seconds of the
+  body swaying made the shoulder outscore a right elbow on `exp1-noisy-fast`, and the
+  pivot flipped between them (with 40, development `exp1-noisy-fast` went 12.45 ->
+  14.16 on seeds 80-159, 34 clips worse and 14 better; with 80, 11.92).
   Development settled RMSE, seeds 0-79 / 80-159, before -> after: `exp3-forearm-high`
-  19.40 -> 16.71 / 19.83 -> 16.98, `exp3-forearm-low` 11.85 -> 11.33 / 12.22 -> 10.88,
-  `exp3-forearm-none` 3.26 -> 3.16 / 2.94 -> 2.81, `exp1-noisy-fast` 15.46 -> 13.92 /
-  12.45 -> 14.16 (more clips worse than better in both), `exp2-servo` and `default`
-  within 0.01. Tried in that round and not kept: withdrawing the earlier lines of an
+  19.40 -> 16.25 / 19.83 -> 16.76, `exp3-forearm-low` 11.85 -> 9.75 / 12.22 -> 9.99,
+  `exp3-forearm-none` 3.26 -> 3.59 (one clip 2.0 -> 27.1) / 2.94 -> 2.90,
+  `exp1-noisy-fast` 15.46 -> 13.44 / 12.45 -> 11.92, `exp2-servo` and `default` within
+  0.01. Tried in that round and not kept: withdrawing the earlier lines of an
   edge once it slides (mixed); one line per edge in the pivot's memory (worse
   everywhere, the servo 0.42 -> 0.85); a crossing only within half a region's length of
   its near end (worse); re-seeking scored by the count of lines explained, or without
   leaving rigid edges out (the board's sides won: more wrong pivots); rigid after 4
   frames (`exp2-servo` 0.42 -> 0.47); a slower second estimate, re-solved every 40 lines
-  (mixed, no cheaper). Also tried: searching the whole joint range for the link's
+  (mixed, no cheaper); switching only after two wins running, or at twice the score
+  (smaller gains); agreeing the first pivot on a looser or earlier solve, now that a
+  wrong one can be replaced (no change). Also tried: searching the whole joint range for the link's
   colour once DON has called it hidden. It finds a forearm that comes out from behind
   the board and rests, but jumps to the board's edge where the colour was learned
   partly from the board; on development clips 0-79 it helped, on 80-159 and on the

@@ -366,8 +366,8 @@ Wrong:
   axis of the whole moving body (the robot jumps between a few poses). Its pivot lands on the
   upper body; before re-seeking (`DON(reseek=True)`) it stayed there, with the "link" drawn down
   the body's side or out sideways while the arms were raised overhead. Now no place explains
-  the moving edges for long, and the pivot moves six times in the clip (input px (239, 100) at
-  frame 90, (205, 74) at 120, (170, 81) at 210, (163, 162) at 270, (160, 19) at the end;
+  the moving edges for long, and the pivot moves three times after frame 180 (input px
+  (231, 101) at frame 180, (165, 70) at 210, (163, 162) at 270, (180, 152) at the end;
   printed by running DON on the clip, not looked at frame by frame). The arms are never
   tracked.
 - `slp_test_video.mp4` with defaults: the pivot lands near the top right of the frame, among the
