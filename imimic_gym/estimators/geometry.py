@@ -390,12 +390,14 @@ class LinkTracker:
         edges: list[int | None] = [None] * len(lines)
         if self.reseek:
             edges = self._follow_edges(lines, [k for k, _ in follows])
+        # Elongated, not sliding (nor rigid): what a pivot estimate may take.
+        feeds = ((lines[:, 5] > 1.4) & (lines[:, 4] > 3.0) & ~self.sliding).tolist()
         if self.known_pivot is None and self.pivots.pivot() is None:
-            for line, sliding, edge in zip(lines, self.sliding, edges, strict=True):
-                if line[5] > 1.4 and line[4] > 3.0 and not sliding:
+            for line, feed, edge in zip(lines, feeds, edges, strict=True):
+                if feed:
                     self.pivots.add_line(line, edge)
         if self.reseek:
-            self._seek_again(lines, edges)
+            self._seek_again(lines, feeds, edges)
         self._previous_lines = lines
         pivot = self.pivot()
         if pivot is not None and (self._radius_pivot is None
@@ -407,8 +409,8 @@ class LinkTracker:
         """Each line's edge id, carried on from the line of the last frame it continues
         (``previous``, `_follow`), else new. A rigid edge (`RIGID_FRAMES`) joins the
         sliding ones in ``self.sliding`` and leaves both pivot estimates."""
-        edges, ids = [], []
-        for line, k in zip(lines.tolist(), previous, strict=True):
+        edges = []
+        for index, (line, k) in enumerate(zip(lines.tolist(), previous, strict=True)):
             if k is None:
                 self._edge_count += 1
                 edges.append((self._edge_count, line[2], line[3], 1))
@@ -416,20 +418,21 @@ class LinkTracker:
                 edge, dx, dy, frames = self._edges[k]
                 edges.append((edge, dx, dy, frames + 1))
             edge, dx, dy, frames = edges[-1]
-            ids.append(edge)
             turned = abs(dx * line[3] - dy * line[2])  # sin of the turn since first seen
             if frames >= RIGID_FRAMES and turned < math.sin(math.radians(TURN_DEG)):
-                self.sliding[len(ids) - 1] = True
+                self.sliding[index] = True
                 self.pivots.withdraw(edge)
                 self._shadow.withdraw(edge)
         self._edges = edges
-        return ids
+        return [edge for edge, *_ in edges]
 
-    def _seek_again(self, lines: np.ndarray, edges: list[int | None]) -> None:
-        """Feed the second pivot estimate and replace the pivot where it explains the
-        recent lines better (see the class docstring)."""
-        for line, sliding, edge in zip(lines, self.sliding, edges, strict=True):
-            if line[5] > 1.4 and line[4] > 3.0 and not sliding:
+    def _seek_again(self, lines: np.ndarray, feeds: list[bool],
+                    edges: list[int | None]) -> None:
+        """Feed the second pivot estimate the lines that may feed one (``feeds``) and
+        replace the pivot where it explains the recent lines better (see the class
+        docstring)."""
+        for line, feed, edge in zip(lines, feeds, edges, strict=True):
+            if feed:
                 self._shadow.add_line(line, edge)
                 self._recent.append(line)
         current = self.pivots.pivot()
@@ -448,23 +451,38 @@ class LinkTracker:
 
     def _fan(self, point: np.ndarray) -> int:
         """Over how many BEARING_BIN_DEG bins of bearing from ``point`` the recent lines
-        that lie along rays from it (as `measure` accepts the link's, without its radius
-        and last-direction gates) spread."""
+        that lie along rays from it (`_on_ray`) spread."""
         px, py = float(point[0]), float(point[1])
         bins = set()
         for cx, cy, dx, dy, length, _, _ in self._recent:
-            ox, oy = cx - px, cy - py
-            distance = math.hypot(ox, oy)
-            if not (abs(ox * dy - oy * dx) < max(4.0, 0.25 * distance) and distance > 2.0):
-                continue
-            if self.reach_back is not None and not distance - 1.7 * length > -self.reach_back:
-                continue
-            bearing = math.atan2(-oy, ox)
-            if self.directions is not None and not abs(
-                    wrap_angle(bearing - self.directions[0])) < self.directions[1]:
-                continue
-            bins.add(math.floor(math.degrees(bearing) / BEARING_BIN_DEG))
+            ray = self._on_ray(px, py, cx, cy, dx, dy, length)
+            if ray is not None:
+                bins.add(math.floor(math.degrees(ray[1]) / BEARING_BIN_DEG))
         return len(bins)
+
+    def _on_ray(self, px: float, py: float, cx: float, cy: float, dx: float, dy: float,
+                length: float) -> tuple[float, float] | None:
+        """The region centred at (cx, cy) with axis (dx, dy) and ``length`` (a
+        `component_lines` row) seen from a pivot at (px, py): its distance (px) and
+        bearing (rad, CCW, image up) if it lies along a ray from the pivot (within ~14
+        degrees), does not reach back past it by more than ``reach_back``, and lies where
+        the link can point; else None. `measure`'s gates that do not depend on the last
+        frames."""
+        ox, oy = cx - px, cy - py
+        distance = float(np.hypot(ox, oy))
+        if not (abs(ox * dy - oy * dx) < max(4.0, 0.25 * distance) and distance > 2.0):
+            return None
+        # A sliver of a turning link starts at its pivot: one reaching back past it (an
+        # occluder's edge sweeping across the joint) is something else.
+        if self.reach_back is not None and not distance - 1.7 * length > -self.reach_back:
+            return None
+        bearing = float(np.arctan2(-oy, ox))  # image y points down
+        # The link cannot point where its joint cannot turn: an occluder's edge or a
+        # flipped reading there is not the link.
+        if self.directions is not None and not abs(
+                wrap_angle(bearing - self.directions[0])) < self.directions[1]:
+            return None
+        return distance, bearing
 
     def _sliding(self, lines: np.ndarray) -> np.ndarray:
         """Which of ``lines`` slid sideways in the last two frames (`_follow`; or are rigid): the
@@ -499,37 +517,27 @@ class LinkTracker:
         # on arrays that short was most of this method's time. Square roots and arctangents
         # stay numpy's: math's differ from them in the last bit.
         px, py = float(pivot[0]), float(pivot[1])
-        if self.directions is not None:
-            middle, half_width = float(self.directions[0]), float(self.directions[1])
         gated = self.lost_for < 5  # the radius and direction gates
         kept = []  # (index, outward direction, weight, distance, length)
         sliding = self._sliding(lines)
         for index, (cx, cy, dx, dy, length, elongation, area) in enumerate(lines.tolist()):
             if sliding[index]:  # an occluder's side, not a turning link
                 continue
-            ox, oy = cx - px, cy - py
-            distance = float(np.hypot(ox, oy))
-            # Along a ray from the pivot within ~14 degrees, and clearly elongated: a round
-            # blob (a ball, a fist turning) says nothing about a direction.
-            if not (abs(ox * dy - oy * dx) < max(4.0, 0.25 * distance) and distance > 2.0
-                    and length > 2.5 and elongation > 2.0):
+            # Clearly elongated: a round blob (a ball, a fist turning) says nothing about a
+            # direction. Then along a ray from the pivot, where the link can point.
+            if not (length > 2.5 and elongation > 2.0):
                 continue
-            # A sliver of a turning link starts at its pivot: one reaching back past it
-            # (an occluder's edge sweeping across the joint) is something else.
-            if self.reach_back is not None and not distance - 1.7 * length > -self.reach_back:
+            ray = self._on_ray(px, py, cx, cy, dx, dy, length)
+            if ray is None:
                 continue
+            distance, centre_angle = ray
             if self.radius is not None and gated and not distance < 1.6 * self.radius:
-                continue
-            centre_angle = float(np.arctan2(-oy, ox))  # image y points down
-            # The link cannot point where its joint cannot turn: an occluder's edge or a
-            # flipped reading there is not the link.
-            if self.directions is not None and not abs(
-                    wrap_angle(centre_angle - middle)) < half_width:
                 continue
             if last is not None and gated and not abs(
                     wrap_angle(centre_angle - last)) < math.radians(45):
                 continue
             # Axes point from the pivot outward; y flips to the CCW, image-up convention.
+            ox, oy = cx - px, cy - py
             if dx * ox + dy * oy < 0:
                 dx, dy = -dx, -dy
             kept.append((index, float(np.arctan2(-dy, dx)), length * area, distance, length))
