@@ -318,6 +318,24 @@ def test_a_forearm_back_in_view_after_the_board_is_read_while_it_rests(
         assert error.max() > 10.0
 
 
+def test_a_forearm_swinging_past_the_boards_edge_is_read_through_the_merge() -> None:
+    """exp3-forearm-high, development seed 13: from frame 122 the forearm, in full view,
+    turns 4 degrees a frame toward the board's sliding edge, and their moving pixels
+    merge into one region along no ray from the elbow. DON held 33.5 degrees through it
+    (frames 122-128, up to 24 degrees off, then hidden for 30 frames); it now erases the
+    edge where it should be and reads the forearm (measured within 2.3 degrees)."""
+    from imimic_gym.clips import load_clip
+    from imimic_gym.clips.scenarios import get_scenario
+
+    spec = get_scenario("exp3-forearm-high", seed=13)
+    clip = load_clip(spec, progress=False)
+    don = DON(fps=clip.fps, reference_direction=spec.reference_direction,
+              joint_range=spec.joint_ranges[0])
+    angles = np.array([e.angles[0] for e in don.run(clip.frames)])
+    error = np.abs(np.degrees(wrap_angle(angles[122:129] - clip.truth.angles[122:129, 0])))
+    assert error.max() < 4.0
+
+
 def test_a_link_found_again_far_away_is_no_velocity() -> None:
     """The bar turns 3 degrees a frame, vanishes for 5 frames and reappears 90 degrees
     on: once the 45-degree gate has lapsed (5 frames without the link), DON reads the new
