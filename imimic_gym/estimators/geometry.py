@@ -45,6 +45,14 @@ RANGE_MARGIN_DEG = 20.0  # how far past its joint range a region may still be th
 # ERASE_PX wide, and what is left within PARALLEL_DEG of parallel to one of them is its
 # remnant, not the link.
 EDGE_MEMORY, ERASE_PX, PARALLEL_DEG = 6, 3, 10.0
+# Before the pivot is agreed, a region within GUESS_EDGE_PX of where such an edge should
+# be and within GUESS_EDGE_DEG of parallel to it is that edge (merged with the link,
+# perhaps): not the link's axis to guess from (`LinkTracker.before_pivot`). Only edges
+# longer (std along the axis, working px) than GUESS_EDGE_LENGTH count: a forearm
+# carried sideways by the body's sway slides too, and counting its region (7 px on the
+# development clip where it did; a whole 35 px forearm is 10) ruled the forearm itself
+# out; a board's side is 14-17.
+GUESS_EDGE_PX, GUESS_EDGE_DEG, GUESS_EDGE_LENGTH = 8.0, 20.0, 12.0
 
 
 def pointing_range(base: float, joint_range: tuple[float, float]) -> tuple[float, float]:
@@ -305,13 +313,16 @@ def _follow(line: np.ndarray, previous: np.ndarray) -> tuple[int | None, float]:
     return nearest, nearest_across
 
 
-def _along(line: list[float], edge: tuple[float, ...]) -> bool:
+def _along(line: list[float], edge: tuple[float, ...], across_px: float = 3.0,
+           parallel_sin: float = 0.1) -> bool:
     """Whether ``line`` (a `component_lines` row) lies along ``edge`` (centre x, y,
-    direction x, y, length): within 3 px of its axis, about 6 degrees of parallel, and
-    beside it rather than beyond its ends."""
+    direction x, y, length): its centre within ``across_px`` of the edge's axis, its
+    direction within ``parallel_sin`` (the sine of the angle; 0.1: about 6 degrees) of
+    parallel, and beside the edge rather than beyond its ends."""
     cx, cy, dx, dy, length = edge
     ox, oy = line[0] - cx, line[1] - cy
-    return (abs(ox * -dy + oy * dx) < 3 and abs(line[2] * dy - line[3] * dx) < 0.1
+    return (abs(ox * -dy + oy * dx) < across_px
+            and abs(line[2] * dy - line[3] * dx) < parallel_sin
             and abs(ox * dx + oy * dy) < length)
 
 
@@ -650,10 +661,26 @@ class LinkTracker:
         """Until the pivot is found: the longest elongated region's axis (rad), pointed
         by the joint range, and that region's extent along it (px: 3.4 standard
         deviations, the span `measure` takes a region to cover); None without a range or
-        such a region."""
+        such a region. Not a sliding edge, nor a region along where a long one should be
+        now (`GUESS_EDGE_PX`): a board's side merged with the forearm, no longer parallel
+        enough to its last self to be followed, was the longest region, and the guess
+        held its direction, over 70 degrees off, until the next one (development clips
+        0-39, settled RMSE: `exp3-forearm-high` 15.17 -> 13.68 deg, `exp3-forearm-low`
+        9.79 -> 7.64, `exp3-forearm-none` 2.64 -> 2.64; within 3 px and 6 degrees 14.68
+        and 9.19, within 12 px 13.88 and 7.03 but none 2.75; counting edges of any
+        length, none 2.66: the forearm's own region, slid with the body, ruled the
+        forearm out). Seeds 0-79 / 80-159: `exp3-forearm-high` 14.29 -> 13.13 / 14.58 ->
+        13.86 (95% interval of the change on 80-159 -1.4 to -0.1), `exp3-forearm-low` 9.20
+        -> 7.91 / 9.20 -> 8.31 (-1.5 to -0.3); no clip of the other scenarios changed."""
         if self.joint_range is None or len(lines) == 0:
             return None
         candidates = lines[(lines[:, 5] > 2.0) & (lines[:, 4] > 2.5) & ~self._sliding(lines)]
+        edges = [edge for edge in self.expected_edges if edge[4] > GUESS_EDGE_LENGTH]
+        if len(candidates) and edges:
+            parallel_sin = math.sin(math.radians(GUESS_EDGE_DEG))
+            candidates = candidates[[
+                not any(_along(row, edge, GUESS_EDGE_PX, parallel_sin) for edge in edges)
+                for row in candidates.tolist()]]
         if len(candidates) == 0:
             return None
         line = candidates[np.argmax(candidates[:, 4] * candidates[:, 6])]

@@ -226,6 +226,26 @@ def test_a_link_merged_with_a_sliding_edge_is_read_past_the_edge() -> None:
     assert merged >= 4
 
 
+def test_before_the_pivot_a_region_where_a_sliding_edge_should_be_is_no_guess() -> None:
+    """Before a pivot: a board's side slides 3 px a frame, then merges with the forearm
+    and tilts 4 degrees, too far to be followed as the same edge. It is still the longest
+    region, but it lies where the sliding edge should be: the guess is the forearm's
+    short sliver at 45 degrees, not the board's side at about 90."""
+    tracker = LinkTracker(joint_range=(0.0, math.radians(120)), reach_back=2.0)
+    for frame in range(4):
+        mask = np.zeros((120, 160), dtype=np.uint8)
+        mask[20:80, 100 - 3 * frame:103 - 3 * frame] = 255
+        tracker.lines(mask)
+    mask = np.zeros((120, 160), dtype=np.uint8)
+    top, bottom = (89 + 2, 20), (89 - 2, 80)  # 4 degrees off vertical, 3 px on
+    cv2.line(mask, top, bottom, 255, thickness=3)
+    cv2.line(mask, (40, 90), (52, 78), 255, thickness=3)  # the forearm's sliver
+    lines = tracker.lines(mask)
+    assert not tracker.sliding.any()
+    angle, _ = tracker.before_pivot(lines)
+    assert math.degrees(angle) == pytest.approx(45.0, abs=3.0)
+
+
 @pytest.mark.parametrize("reseek", [False, True])
 @pytest.mark.parametrize("degrees_per_frame", [1.5, 4.0])
 def test_slivers_of_a_turning_bar_do_not_slide(degrees_per_frame: float, reseek: bool) -> None:
