@@ -53,6 +53,10 @@ EDGE_MEMORY, ERASE_PX, PARALLEL_DEG = 6, 3, 10.0
 # development clip where it did; a whole 35 px forearm is 10) ruled the forearm itself
 # out; a board's side is 14-17.
 GUESS_EDGE_PX, GUESS_EDGE_DEG, GUESS_EDGE_LENGTH = 8.0, 20.0, 12.0
+# Before the pivot, the shortest region (std along its axis, working px: 4 is a region
+# 14 px long) whose axis is a guess: the moving clutter's blobs, 2.5-3.3 long, had been
+# guessed from and held for a dozen frames, 60-70 degrees off.
+GUESS_MIN_LENGTH = 4.0
 
 
 def pointing_range(base: float, joint_range: tuple[float, float]) -> tuple[float, float]:
@@ -661,8 +665,20 @@ class LinkTracker:
         """Until the pivot is found: the longest elongated region's axis (rad), pointed
         by the joint range, and that region's extent along it (px: 3.4 standard
         deviations, the span `measure` takes a region to cover); None without a range or
-        such a region. Not a sliding edge, nor a region along where a long one should be
-        now (`GUESS_EDGE_PX`): a board's side merged with the forearm, no longer parallel
+        such a region.
+
+        Not a short region (`GUESS_MIN_LENGTH`; development clips 0-39, settled RMSE
+        with 2.5 -> 4: `exp3-forearm-high` 13.68 -> 12.59 deg, `exp3-forearm-low` 7.64 ->
+        6.47, `exp3-forearm-none` 2.64 -> 2.52, `exp1-noisy-fast` 14.39 -> 14.20; 3.5,
+        4.5 and 5.5 within 0.4 of it, 7 worse). Seeds 0-79 / 80-159: `exp3-forearm-high`
+        13.13 -> 11.79 / 13.86 -> 12.67 (95% interval of the change on 80-159 -2.0 to
+        -0.5), `exp3-forearm-low` 7.91 -> 7.05 / 8.31 -> 7.60 (-1.3 to -0.2),
+        `exp3-forearm-none` 3.59 -> 3.52 / 2.87 -> 2.93 (-0.2 to +0.3; one clip 4.0 ->
+        11.8), `exp1-noisy-fast` 13.44 -> 13.26 / 11.75 -> 11.56, `default` within 0.01,
+        `exp2-servo` unchanged.
+
+        Not a sliding edge, nor a region along where a long one should be now
+        (`GUESS_EDGE_PX`): a board's side merged with the forearm, no longer parallel
         enough to its last self to be followed, was the longest region, and the guess
         held its direction, over 70 degrees off, until the next one (development clips
         0-39, settled RMSE: `exp3-forearm-high` 15.17 -> 13.68 deg, `exp3-forearm-low`
@@ -674,7 +690,8 @@ class LinkTracker:
         -> 7.91 / 9.20 -> 8.31 (-1.5 to -0.3); no clip of the other scenarios changed."""
         if self.joint_range is None or len(lines) == 0:
             return None
-        candidates = lines[(lines[:, 5] > 2.0) & (lines[:, 4] > 2.5) & ~self._sliding(lines)]
+        candidates = lines[(lines[:, 5] > 2.0) & (lines[:, 4] > GUESS_MIN_LENGTH)
+                           & ~self._sliding(lines)]
         edges = [edge for edge in self.expected_edges if edge[4] > GUESS_EDGE_LENGTH]
         if len(candidates) and edges:
             parallel_sin = math.sin(math.radians(GUESS_EDGE_DEG))

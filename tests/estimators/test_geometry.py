@@ -226,6 +226,19 @@ def test_a_link_merged_with_a_sliding_edge_is_read_past_the_edge() -> None:
     assert merged >= 4
 
 
+def test_before_the_pivot_a_short_blob_is_no_guess() -> None:
+    """Before a pivot: a short elongated blob (a bit of moving clutter, 10 px) gives no
+    guess, so the last estimate stands; a sliver twice as long gives its axis."""
+    tracker = LinkTracker(joint_range=(0.0, math.radians(120)), reach_back=2.0)
+    short = np.zeros((120, 160), dtype=np.uint8)
+    cv2.line(short, (40, 90), (45, 81), 255, thickness=3)  # 10 px at 60 degrees
+    assert tracker.before_pivot(tracker.lines(short)) is None
+    long = np.zeros((120, 160), dtype=np.uint8)
+    cv2.line(long, (40, 90), (54, 76), 255, thickness=3)  # 20 px at 45 degrees
+    angle, _ = tracker.before_pivot(tracker.lines(long))
+    assert math.degrees(angle) == pytest.approx(45.0, abs=2.0)
+
+
 def test_before_the_pivot_a_region_where_a_sliding_edge_should_be_is_no_guess() -> None:
     """Before a pivot: a board's side slides 3 px a frame, then merges with the forearm
     and tilts 4 degrees, too far to be followed as the same edge. It is still the longest
