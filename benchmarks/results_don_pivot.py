@@ -136,13 +136,32 @@ def render(load, table) -> str:
   is left of the board can be read as the link too: seed 63 went 21.6 -> 38.7. Tried
   and not kept: looking again only within 5 frames of the last reading, or keeping only
   readings within 20 degrees of the last (seeds 0-39: 15.17 as built, 16.72 and 15.83
-  so; 17.20 before). Also tried in this round, on the frames before the pivot is
-  agreed (over half the squared error left on `exp3-forearm-high`): the guess from a
-  region's axis kept within 15-45 degrees of the last guess (RMSE on those frames
-  38.9 -> 38.7 to 45.0), and a first solve from 6-8 lines and 6-10
-  crossings instead of 12 and 20 (high 17.2 -> 16.8, low 10.8 -> 10.9-11.7, none 2.6
-  -> 2.9). Those frames would hold `exp3-forearm-high` at 12.0 even if they were
-  perfect (seeds 0-39).
+  so; 17.20 before).
+
+  Then the frames before the pivot is agreed: 56% of the squared error left on
+  `exp3-forearm-high` and 63% on `-low` after the round above (development clips
+  0-19). Until a first
+  solve, the guess is the longest region's axis, held until the next guess; drawn frame
+  by frame, it was often a board's side merged with the forearm (tilted too far to be
+  followed as the same edge) or a blob of the moving clutter, held for a dozen frames
+  or more, 60-70 degrees off. Two changes (`LinkTracker.before_pivot`): no guess from
+  a region lying where a long sliding edge should be now (within 8 px and 20 degrees;
+  only edges over 12 px std long count, as the body's sway slides the forearm too), and
+  none from a region under 4 px std long (was 2.5). Development settled RMSE, seeds
+  0-79 / 80-159, before -> after both: `exp3-forearm-high` 14.29 -> 11.79 / 14.58 ->
+  12.67, `exp3-forearm-low` 9.20 -> 7.05 / 9.20 -> 7.60, `exp3-forearm-none` 3.59 ->
+  3.52 / 2.87 -> 2.93, `exp1-noisy-fast` 13.44 -> 13.26 / 11.75 -> 11.56, `default`
+  within 0.01, `exp2-servo` unchanged (each change's own figures and 95% intervals are
+  in the docstring). Tried and not kept: the guess kept within 15-45 degrees of the last
+  one (RMSE on those frames 38.9 -> 38.7 to 45.0); a first solve from 6-8 lines and
+  6-10 crossings instead of 12 and 20 (high 17.2 -> 16.8, low 10.8 -> 10.9-11.7, none
+  2.6 -> 2.9); the middle of the joint range instead of any guess (reckoned from the
+  frames' errors, not run: high 17.2 -> 14.8 but none 2.6 -> 4.4, seeds 0-39, before
+  both changes); remembering an unseen edge for 10 frames instead of 6 (seeds 0-79:
+  high 11.79 -> 11.51, low 7.05 -> 6.86; seeds 80-159: 12.67 -> 12.66, 7.60 -> 7.45);
+  erasing each edge 3 px past its ends, where a board's corner left a blob that was
+  read as the link (0-79: high 11.79 -> 11.51; 80-159: 12.67 -> 12.61, the 95%
+  interval -0.5 to +0.5).
 
   Where the rest of the error is, on development clips 0-{sources['seeds'] - 1} (command:
   `.venv/bin/python benchmarks/don_error_sources.py --json
