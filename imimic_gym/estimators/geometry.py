@@ -682,12 +682,13 @@ class LinkTracker:
         enough to its last self to be followed, was the longest region, and the guess
         held its direction, over 70 degrees off, until the next one (development clips
         0-39, settled RMSE: `exp3-forearm-high` 15.17 -> 13.68 deg, `exp3-forearm-low`
-        9.79 -> 7.64, `exp3-forearm-none` 2.64 -> 2.64; within 3 px and 6 degrees 14.68
-        and 9.19, within 12 px 13.88 and 7.03 but none 2.75; counting edges of any
-        length, none 2.66: the forearm's own region, slid with the body, ruled the
-        forearm out). Seeds 0-79 / 80-159: `exp3-forearm-high` 14.29 -> 13.13 / 14.58 ->
-        13.86 (95% interval of the change on 80-159 -1.4 to -0.1), `exp3-forearm-low` 9.20
-        -> 7.91 / 9.20 -> 8.31 (-1.5 to -0.3); no clip of the other scenarios changed."""
+        9.79 -> 7.64, `exp3-forearm-none` 2.64 -> 2.64. Counting edges of any length:
+        within 8 px and 20 degrees none 2.66, as the forearm's own region, slid with the
+        body, ruled the forearm out; within 3 px and 6 degrees high 14.68, low 9.19;
+        within 12 px 13.88 and 7.03 but none 2.75). Seeds 0-79 / 80-159:
+        `exp3-forearm-high` 14.29 -> 13.13 / 14.58 -> 13.86 (95% interval of the change on
+        80-159 -1.4 to -0.1), `exp3-forearm-low` 9.20 -> 7.91 / 9.20 -> 8.31 (-1.5 to
+        -0.3); no clip of the other scenarios changed."""
         if self.joint_range is None or len(lines) == 0:
             return None
         candidates = lines[(lines[:, 5] > 2.0) & (lines[:, 4] > GUESS_MIN_LENGTH)
