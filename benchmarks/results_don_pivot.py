@@ -152,7 +152,9 @@ def render(load, table) -> str:
   12.67, `exp3-forearm-low` 9.20 -> 7.05 / 9.20 -> 7.60, `exp3-forearm-none` 3.59 ->
   3.52 / 2.87 -> 2.93, `exp1-noisy-fast` 13.44 -> 13.26 / 11.75 -> 11.56, `default`
   within 0.01, `exp2-servo` unchanged (each change's own figures and 95% intervals are
-  in the docstring). Tried and not kept: the guess kept within 15-45 degrees of the last
+  in the docstring). MOG2 and CamShift guess through the same code, so their held-out
+  figures moved too (MOG2 `exp3-forearm-low` 24.0 -> 22.7, `-high` 25.7 -> 24.2,
+  `-none` 12.4 -> 11.2; CamShift within 0.2). Tried and not kept: the guess kept within 15-45 degrees of the last
   one (RMSE on those frames 38.9 -> 38.7 to 45.0); a first solve from 6-8 lines and
   6-10 crossings instead of 12 and 20 (high 17.2 -> 16.8, low 10.8 -> 10.9-11.7, none
   2.6 -> 2.9); the middle of the joint range instead of any guess (reckoned from the
