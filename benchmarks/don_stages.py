@@ -6,7 +6,10 @@ smallest total over the runs, per frame (the machine is shared: the least distur
 is the closest to the cost; so the stages' figures come from different runs and are not
 summed). Each wrapper adds its own cost per call (measured on a no-op and reported). The
 whole frame is timed unwrapped (CPU time, median and minimum of as many runs) beside raw
-OpenCV MOG2 on the same frames. Usage:
+OpenCV MOG2 on the same frames. Under cProfile, the time inside OpenCV's calls and inside
+numpy's and Python's built-ins, against the same unwrapped time: what is left is the
+interpreter running DON's own Python, the one cost a faster DON could drop without
+changing what it computes. Usage:
 
     .venv/bin/python benchmarks/don_stages.py --json benchmarks/results/don_stages.json
 """
@@ -14,8 +17,10 @@ OpenCV MOG2 on the same frames. Usage:
 from __future__ import annotations
 
 import argparse
+import cProfile
 import functools
 import json
+import pstats
 import time
 import timeit
 from collections.abc import Callable
@@ -93,6 +98,27 @@ def stage_times(clip_frames: np.ndarray, repeats: int) -> dict[str, float]:
     return best
 
 
+def library_time_us(clip_frames: np.ndarray, repeats: int) -> dict[str, float]:
+    """us per frame DON spends inside OpenCV's calls and inside numpy's and Python's
+    built-in calls (cProfile's own time of each built-in; the least of ``repeats`` runs):
+    what the same calls would cost with no time in the interpreter running DON's Python.
+    The profiler's hooks add a little to each call, so these lean high."""
+    best = {"opencv": float("inf"), "numpy_and_builtins": float("inf")}
+    for _ in range(repeats):
+        profile = cProfile.Profile()
+        profile.enable()
+        don.DON().run(clip_frames)
+        profile.disable()
+        totals = dict.fromkeys(best, 0.0)
+        for (filename, _, name), (*_, own, _, _) in pstats.Stats(profile).stats.items():
+            if filename == "~":  # a built-in: OpenCV's are listed as "<name>"
+                kind = "opencv" if hasattr(cv2, name.strip("<>")) else "numpy_and_builtins"
+                totals[kind] += own
+        for kind, total in totals.items():
+            best[kind] = min(best[kind], total / len(clip_frames) * 1e6)
+    return best
+
+
 def whole_runs_ms(clip_frames: np.ndarray, repeats: int) -> dict[str, list[float]]:
     """CPU ms per frame (as `imimic bench don` times them) of unwrapped DON and of raw
     MOG2 (``apply`` on the full frame), alternating, ``repeats`` runs each."""
@@ -124,12 +150,18 @@ def main() -> None:
     stages = stage_times(clip.frames, args.repeats)
     overhead = timer_overhead_us()
     runs = whole_runs_ms(clip.frames, args.repeats)
+    library = library_time_us(clip.frames, min(args.repeats, 7))
     summary = {f"{name}_ms_{stat.__name__}": float(stat(times))
                for name, times in runs.items() for stat in (np.median, np.min)}
     summary["ratio_mog2_median"] = summary["don_ms_median"] / summary["mog2_raw_ms_median"]
     summary["ratio_mog2_min"] = summary["don_ms_min"] / summary["mog2_raw_ms_min"]
+    summary["library_us_per_frame"] = library
+    summary["library_ratio_mog2"] = sum(library.values()) / 1e3 / summary["mog2_raw_ms_min"]
     for name, us in stages.items():
         print(f"{name:48s} {us:7.1f} us/frame")
+    print(f"inside OpenCV's calls {library['opencv']:.0f} us/frame, numpy's and Python's "
+          f"built-ins {library['numpy_and_builtins']:.0f}: with no interpreter time, DON / "
+          f"raw MOG2 {summary['library_ratio_mog2']:.3f} (of minima)")
     print(f"(each timer adds {overhead:.2f} us per call)")
     print(f"DON {summary['don_ms_median']:.3f} ms/frame (min {summary['don_ms_min']:.3f}), "
           f"raw MOG2 {summary['mog2_raw_ms_median']:.3f} (min {summary['mog2_raw_ms_min']:.3f})"

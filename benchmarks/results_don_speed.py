@@ -11,6 +11,7 @@ def render(load: Callable[[str], dict],
            table: Callable[[list[str], list[list[str]]], str]) -> str:
     stages = load("don_stages")
     rows = [[name.strip(), f"{us:.0f}"] for name, us in stages["stages_us_per_frame"].items()]
+    lib = stages["library_us_per_frame"]
     bench = next(row for row in load("don")["rows"] if row["resolution"] == stages["resolution"])
     return f"""
 At {stages['resolution']}, on this shared 2-core machine, the default DON / raw MOG2
@@ -35,7 +36,16 @@ sliding extrema, and the periodic pivot solve. Our appearance layer takes about 
 search over a few dozen rays (one `cv2.remap` of their points) and a line fitted in one
 corridor (`cv2.warpAffine`, then image moments), a few dozen OpenCV and numpy calls a frame
 on arrays of a few hundred pixels, where each call's fixed cost is most of its time.
+
+How much of that is the interpreter. Under cProfile, in the same script, DON spends
+{lib['opencv']:.0f} us a frame inside OpenCV's calls and {lib['numpy_and_builtins']:.0f} inside
+numpy's and Python's built-ins (least of 7 runs; the profiler's hooks make both lean high);
+against the unwrapped minimum of {stages['don_ms_min'] * 1e3:.0f} us, the rest, about
+{stages['don_ms_min'] * 1e3 - sum(lib.values()):.0f} us, is the interpreter running DON's own
+Python. With none of that, the same calls would give DON / raw MOG2
+{stages['library_ratio_mog2']:.2f} (of minima). So no tuning of the Python reaches the
+paper's 0.3 with a margin: that takes fewer, fused calls, a compiled per-frame pipeline.
 `benchmarks/don_same_estimates.py --base REV` checks that a change left every estimate as
-it was at REV: with the appearance layer off, this session's restructuring of `DON.update`
+it was at REV: with the appearance layer off, an earlier restructuring of `DON.update`
 left every estimate bit-identical to the revision before it.
 """
