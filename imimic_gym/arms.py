@@ -16,7 +16,7 @@ Geometry convention (shared with the demonstrator clips, see DESIGN.md):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Literal
 
 import mujoco
@@ -136,9 +136,6 @@ class ArmSpec:
 
         per_moment = self.max_torque / moment(0)
         return tuple(self.max_torque if i == 0 else per_moment * moment(i) for i in range(n))
-
-    def with_control(self, control: Control) -> ArmSpec:
-        return replace(self, control=control)
 
 
 def plane_axes(plane: Plane) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
