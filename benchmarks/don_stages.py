@@ -150,12 +150,14 @@ def main() -> None:
     stages = stage_times(clip.frames, args.repeats)
     overhead = timer_overhead_us()
     runs = whole_runs_ms(clip.frames, args.repeats)
-    library = library_time_us(clip.frames, min(args.repeats, 7))
+    library_runs = min(args.repeats, 7)
+    library = library_time_us(clip.frames, library_runs)
     summary = {f"{name}_ms_{stat.__name__}": float(stat(times))
                for name, times in runs.items() for stat in (np.median, np.min)}
     summary["ratio_mog2_median"] = summary["don_ms_median"] / summary["mog2_raw_ms_median"]
     summary["ratio_mog2_min"] = summary["don_ms_min"] / summary["mog2_raw_ms_min"]
     summary["library_us_per_frame"] = library
+    summary["library_runs"] = library_runs
     summary["library_ratio_mog2"] = sum(library.values()) / 1e3 / summary["mog2_raw_ms_min"]
     for name, us in stages.items():
         print(f"{name:48s} {us:7.1f} us/frame")

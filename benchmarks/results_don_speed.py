@@ -39,12 +39,16 @@ on arrays of a few hundred pixels, where each call's fixed cost is most of its t
 
 How much of that is the interpreter. Under cProfile, in the same script, DON spends
 {lib['opencv']:.0f} us a frame inside OpenCV's calls and {lib['numpy_and_builtins']:.0f} inside
-numpy's and Python's built-ins (least of 7 runs; the profiler's hooks make both lean high);
+numpy's and Python's built-ins (least of {stages['library_runs']} runs; the profiler's hooks
+make both lean high);
 against the unwrapped minimum of {stages['don_ms_min'] * 1e3:.0f} us, the rest, about
 {stages['don_ms_min'] * 1e3 - sum(lib.values()):.0f} us, is the interpreter running DON's own
 Python. With none of that, the same calls would give DON / raw MOG2
-{stages['library_ratio_mog2']:.2f} (of minima). So no tuning of the Python reaches the
-paper's 0.3 with a margin: that takes fewer, fused calls, a compiled per-frame pipeline.
+{stages['library_ratio_mog2']:.2f} (of minima) in this run; over six runs of the script on
+2026-11-24 (this one, and five more with `--repeats 25` or `15`) 0.26-0.34, that is, about
+the paper's 0.3. Tuning DON's Python cannot get there: even with no interpreter at all (a
+compiled per-frame pipeline making the same calls) DON would be at about 0.3, and a margin
+below it needs fewer passes over the pixels as well.
 `benchmarks/don_same_estimates.py --base REV` checks that a change left every estimate as
 it was at REV: with the appearance layer off, an earlier restructuring of `DON.update`
 left every estimate bit-identical to the revision before it.
