@@ -5,13 +5,14 @@ write_results.py."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from statistics import median
 
 
 def render(load: Callable[[str], dict],
            table: Callable[[list[str], list[list[str]]], str]) -> str:
     stages = load("don_stages")
     rows = [[name.strip(), f"{us:.0f}"] for name, us in stages["stages_us_per_frame"].items()]
-    lib = stages["library_us_per_frame"]
+    lib, ratios = stages["library_us_per_frame"], stages["library_ratios_mog2"]
     bench = next(row for row in load("don")["rows"] if row["resolution"] == stages["resolution"])
     return f"""
 At {stages['resolution']}, on this shared 2-core machine, the default DON / raw MOG2
@@ -40,15 +41,14 @@ on arrays of a few hundred pixels, where each call's fixed cost is most of its t
 How much of that is the interpreter. Under cProfile, in the same script, DON spends
 {lib['opencv']:.0f} us a frame inside OpenCV's calls and {lib['numpy_and_builtins']:.0f} inside
 numpy's and Python's built-ins (least of {stages['library_runs']} runs; the profiler's hooks
-make both lean high);
-against the unwrapped minimum of {stages['don_ms_min'] * 1e3:.0f} us, the rest, about
-{stages['don_ms_min'] * 1e3 - sum(lib.values()):.0f} us, is the interpreter running DON's own
-Python. With none of that, the same calls would give DON / raw MOG2
-{stages['library_ratio_mog2']:.2f} (of minima) in this run; over six runs of the script on
-2026-11-24 (this one, and five more with `--repeats 25` or `15`) 0.26-0.34, that is, about
-the paper's 0.3. Tuning DON's Python cannot get there: even with no interpreter at all (a
-compiled per-frame pipeline making the same calls) DON would be at about 0.3, and a margin
-below it needs fewer passes over the pixels as well.
+make both lean high); against the unwrapped minimum of {stages['don_ms_min'] * 1e3:.0f} us, the
+rest, about {stages['don_ms_min'] * 1e3 - sum(lib.values()):.0f} us, is the interpreter running
+DON's own Python. With none of that, the same calls would give DON / raw MOG2
+{median(ratios):.2f} (median of {len(ratios)} runs, each paired with a MOG2 run right after it;
+{min(ratios):.2f}-{max(ratios):.2f}): about the paper's 0.3. Getting from the ratio above to
+0.3 would take about all of the interpreter's time away, which tuning the Python does not
+do: it takes a compiled per-frame pipeline, and a clear margin below 0.3 fewer passes over
+the pixels as well.
 `benchmarks/don_same_estimates.py --base REV` checks that a change left every estimate as
 it was at REV: with the appearance layer off, an earlier restructuring of `DON.update`
 left every estimate bit-identical to the revision before it.
