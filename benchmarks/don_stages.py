@@ -30,7 +30,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from imimic_gym.bench import machine
+from imimic_gym.bench import machine, per_frame_ms, run_raw_mog2
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
 from imimic_gym.estimators import appearance, don, frames, geometry, motion
@@ -114,7 +114,7 @@ def library_time_us(clip_frames: np.ndarray, repeats: int) -> dict[str, Any]:
         profile.enable()
         don.DON().run(clip_frames)
         profile.disable()
-        mog2_ms = _raw_mog2_ms(clip_frames)
+        mog2_ms = per_frame_ms(run_raw_mog2, clip_frames)
         totals = dict.fromkeys(best, 0.0)
         for (filename, _, name), (*_, own, _, _) in pstats.Stats(profile).stats.items():
             if filename == "~":  # a built-in: OpenCV's are listed as "<name>"
@@ -127,24 +127,13 @@ def library_time_us(clip_frames: np.ndarray, repeats: int) -> dict[str, Any]:
     return {"us_per_frame": best, "ratios_mog2": ratios}
 
 
-def _raw_mog2_ms(clip_frames: np.ndarray) -> float:
-    """CPU ms per frame of raw MOG2 (``apply`` on the full frame) over ``clip_frames``."""
-    subtractor = cv2.createBackgroundSubtractorMOG2(detectShadows=False)
-    start = time.process_time()
-    for frame in clip_frames:
-        subtractor.apply(frame)
-    return (time.process_time() - start) / len(clip_frames) * 1e3
-
-
 def whole_runs_ms(clip_frames: np.ndarray, repeats: int) -> dict[str, list[float]]:
     """CPU ms per frame (as `imimic bench don` times them) of unwrapped DON and of raw
     MOG2 (``apply`` on the full frame), alternating, ``repeats`` runs each."""
     runs: dict[str, list[float]] = {"don": [], "mog2_raw": []}
     for _ in range(repeats):
-        start = time.process_time()
-        don.DON().run(clip_frames)
-        runs["don"].append((time.process_time() - start) / len(clip_frames) * 1e3)
-        runs["mog2_raw"].append(_raw_mog2_ms(clip_frames))
+        runs["don"].append(per_frame_ms(lambda f: don.DON().run(f), clip_frames))
+        runs["mog2_raw"].append(per_frame_ms(run_raw_mog2, clip_frames))
     return runs
 
 

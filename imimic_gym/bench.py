@@ -16,7 +16,8 @@ from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario, scenario_names
 from imimic_gym.clips.synthetic import render_clip
 
-__all__ = ["bench_don", "bench_env", "bench_render", "don_window_and_lighting", "machine"]
+__all__ = ["bench_don", "bench_env", "bench_render", "don_window_and_lighting", "machine",
+           "per_frame_ms", "run_raw_mog2"]
 
 
 def machine() -> dict[str, Any]:
@@ -121,12 +122,22 @@ def bench_render(n_frames: int = 150, height: int = 240, width: int = 320,
 PAPER_RESOLUTIONS = ((240, 320), (480, 640), (720, 960), (960, 1280))
 
 
-def _per_frame_ms(run, frames: np.ndarray) -> float:
+def per_frame_ms(run, frames: np.ndarray) -> float:
     """CPU ms per frame of ``run(frames)``: this process's CPU time, so the time the OS
     gives another job on a shared machine does not count (every run is one thread)."""
     start = time.process_time()
     run(frames)
     return (time.process_time() - start) / len(frames) * 1e3
+
+
+def run_raw_mog2(frames: np.ndarray) -> None:
+    """Raw OpenCV MOG2 (no shadow detection, as the MOG2 estimator uses it): ``apply`` on
+    every full frame, with a fresh subtractor; the reference DON's speed is compared with."""
+    import cv2
+
+    subtractor = cv2.createBackgroundSubtractorMOG2(detectShadows=False)
+    for frame in frames:
+        subtractor.apply(frame)
 
 
 def bench_don(frames: int = 90, repeats: int = 7,
@@ -143,18 +154,12 @@ def bench_don(frames: int = 90, repeats: int = 7,
     from imimic_gym.estimators.don import DON
 
     cv2.setNumThreads(1)
-
-    def raw_mog2(clip_frames: np.ndarray) -> None:
-        subtractor = cv2.createBackgroundSubtractorMOG2(detectShadows=False)
-        for frame in clip_frames:
-            subtractor.apply(frame)
-
     runs = {
         "don": lambda f: DON().run(f),
         "don_paper": lambda f: DON(appearance=False).run(f),
         "mog2_estimator": lambda f: MOG2Estimator().run(f),
         "camshift_estimator": lambda f: CamShiftEstimator().run(f),
-        "mog2_raw": raw_mog2,
+        "mog2_raw": run_raw_mog2,
     }
     rows = []
     for height, width in resolutions:
@@ -165,7 +170,7 @@ def bench_don(frames: int = 90, repeats: int = 7,
             run(clip.frames)
         for _ in range(repeats):
             for name, run in runs.items():
-                times[name].append(_per_frame_ms(run, clip.frames))
+                times[name].append(per_frame_ms(run, clip.frames))
         row = {"resolution": f"{height}x{width}",
                **{f"{k}_ms": float(np.median(v)) for k, v in times.items()}}
         row["ratio_mog2"] = row["don_ms"] / row["mog2_raw_ms"]
@@ -190,7 +195,7 @@ def don_window_and_lighting(out_prefix: str, frames: int = 90) -> dict[str, Any]
     cv2.setNumThreads(1)
     clip = load_clip(get_scenario("default", n_frames=frames), progress=False)
     windows = [2, 4, 6, 8, 10, 12, 15, 20]
-    window_ms = [float(np.median([_per_frame_ms(lambda f, n=n: DON(window=n).run(f),
+    window_ms = [float(np.median([per_frame_ms(lambda f, n=n: DON(window=n).run(f),
                                                 clip.frames) for _ in range(3)]))
                  for n in windows]
     lighting = [0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0]
