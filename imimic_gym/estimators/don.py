@@ -35,7 +35,7 @@ Decisions where the paper is vague or inconsistent (each is also noted where it 
 - Before the pivot is agreed: the link's direction about the last solve's pivot, while
   it waits for the next solve to agree; before any solve, the longest moving region's
   axis, unless it is short (moving clutter) or lies where an occluder's sliding edge
-  should be (`LinkTracker.before_pivot`). These guesses feed the path estimator too
+  should be or has stopped (`LinkTracker.before_pivot`). These guesses feed the path estimator too
   (a guess that jumps by `GUESS_JUMP` restarts it), so omega does not wait for the
   pivot, and the trust factor, with the guessed region's size as M_p. Before anything has moved,
   DON reports the middle of the joint range with eta 0: a placeholder, not a reading.

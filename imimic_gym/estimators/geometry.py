@@ -51,7 +51,9 @@ EDGE_MEMORY, ERASE_PX, PARALLEL_DEG = 6, 3, 10.0
 # longer (std along the axis, working px) than GUESS_EDGE_LENGTH count: a forearm
 # carried sideways by the body's sway slides too, and counting its region (7 px on the
 # development clip where it did; a whole 35 px forearm is 10) ruled the forearm itself
-# out; a board's side is 14-17.
+# out; a board's side is 14-17. Such an edge that stops sliding is still the board's:
+# while a long region that does not slide lies along it (the same distance and angle),
+# it stays one for the guess (`LinkTracker.stopped_edges`).
 GUESS_EDGE_PX, GUESS_EDGE_DEG, GUESS_EDGE_LENGTH = 8.0, 20.0, 12.0
 # Before the pivot, the shortest region (std along its axis, working px: 4 is a region
 # 14 px long) whose axis is a guess: the moving clutter's blobs, 2.5-3.3 long, had been
@@ -417,6 +419,9 @@ class LinkTracker:
         # each with its shift per frame (x, y) and the frames since it was last seen.
         self.expected_edges: list[tuple[float, float, float, float, float]] = []
         self._moving_edges: list[tuple[tuple[float, ...], tuple[float, float], int]] = []
+        # Long edges that slid and have since stopped, as seen in the newest frame (same
+        # rows); kept only until the pivot is agreed, for `before_pivot`.
+        self.stopped_edges: list[tuple[float, ...]] = []
 
     def pivot(self) -> np.ndarray | None:
         """The pivot in working pixels: the known one, else the estimate (None until the
@@ -447,6 +452,8 @@ class LinkTracker:
         if self.reseek:
             self._seek_again(lines, feeds, edges)
         self._expect_edges(lines, [k for k, _ in follows])
+        if self.pivot() is None:
+            self._note_stopped_edges(lines)
         self._previous_lines = lines
         pivot = self.pivot()
         if pivot is not None and (self._radius_pivot is None
@@ -477,6 +484,34 @@ class LinkTracker:
                       + (cy - self._previous_lines[k, 1]) * dx)
             moving.append(((cx, cy, dx, dy, length), (-dy * across, dx * across), 0))
         self._moving_edges = moving
+
+    def _note_stopped_edges(self, lines: np.ndarray) -> None:
+        """``stopped_edges``: this frame's long regions that do not slide but lie along
+        (`GUESS_EDGE_PX`, `GUESS_EDGE_DEG`) a long edge that slid (``expected_edges``) or
+        one that had stopped in the last frame: a board whose side stops sliding.
+
+        The guess before the pivot skipped regions along a sliding edge only, and an
+        edge is expected for EDGE_MEMORY frames after it last slid. A board that
+        stopped for longer left its still sides in the masks (the body's sway and the
+        board's own slow creep keep them moving), the longest regions there, and the
+        guess held one, 66 degrees off, for 27 frames on development clip 1 of
+        `exp3-forearm-high`. Development clips, settled RMSE, without -> with (seeds
+        0-79 chosen, 80-159 a check; `benchmarks/don_dev_seeds.py --compare`):
+        `exp3-forearm-low` 7.05 -> 6.23 deg (better on 17 clips, worse on none) /
+        7.60 -> 7.27 (5 better, 3 worse; 95% interval of the change -0.80 to -0.00),
+        `exp3-forearm-high` 11.79 -> 11.43 (10 better, 1 worse; clip 1 29.3 -> 10.6) /
+        12.67 -> 12.66; `exp2-servo` unchanged / 0.46 -> 0.48 (a long side of the
+        servo's horn slid, then its still region was skipped: two clips 0.7 -> 1.2 and
+        0.3 -> 0.6); the other scenarios unchanged. Matching at the
+        tighter 3 px and 6 degrees of `_along`'s default lost a board's side that
+        stepped 4 px (high -0.06, low -0.28 on 0-79)."""
+        parallel_sin = math.sin(math.radians(GUESS_EDGE_DEG))
+        known = [edge for edge in self.expected_edges if edge[4] > GUESS_EDGE_LENGTH]
+        known += self.stopped_edges
+        self.stopped_edges = [
+            tuple(row[:5]) for row, sliding in zip(lines.tolist(), self.sliding, strict=True)
+            if not sliding and row[4] > GUESS_EDGE_LENGTH
+            and any(_along(row, edge, GUESS_EDGE_PX, parallel_sin) for edge in known)]
 
     def _follow_edges(self, lines: np.ndarray, previous: list[int | None]) -> list[int]:
         """Each line's edge id, carried on from the line of the last frame it continues
@@ -678,8 +713,9 @@ class LinkTracker:
         `exp2-servo` unchanged.
 
         Not a sliding edge, nor a region along where a long one should be now
-        (`GUESS_EDGE_PX`): a board's side merged with the forearm, no longer parallel
-        enough to its last self to be followed, was the longest region, and the guess
+        (`GUESS_EDGE_PX`) or has stopped (`stopped_edges`): a board's side merged with
+        the forearm, no longer parallel enough to its last self to be followed, was the
+        longest region, and the guess
         held its direction, over 70 degrees off, until the next one (development clips
         0-39, settled RMSE: `exp3-forearm-high` 15.17 -> 13.68 deg, `exp3-forearm-low`
         9.79 -> 7.64, `exp3-forearm-none` 2.64 -> 2.64. Counting edges of any length:
@@ -696,6 +732,7 @@ class LinkTracker:
         candidates = lines[(lines[:, 5] > 2.0) & (lines[:, 4] > GUESS_MIN_LENGTH)
                            & ~self._sliding(lines)]
         edges = [edge for edge in self.expected_edges if edge[4] > GUESS_EDGE_LENGTH]
+        edges += self.stopped_edges
         if len(candidates) and edges:
             parallel_sin = math.sin(math.radians(GUESS_EDGE_DEG))
             candidates = candidates[[

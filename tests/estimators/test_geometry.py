@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from imimic_gym.estimators.geometry import (
+    EDGE_MEMORY,
     RIGID_FRAMES,
     LinkTracker,
     PivotEstimator,
@@ -257,6 +258,30 @@ def test_before_the_pivot_a_region_where_a_sliding_edge_should_be_is_no_guess() 
     assert not tracker.sliding.any()
     angle, _ = tracker.before_pivot(lines)
     assert math.degrees(angle) == pytest.approx(45.0, abs=3.0)
+
+
+def test_before_the_pivot_a_sliding_edge_that_stopped_is_still_no_guess() -> None:
+    """Before a pivot: a board's side slides 3 px a frame, then stops, while the
+    forearm's short sliver turns beside it. Where the slid edge is expected moves on by
+    its last shift (and is forgotten EDGE_MEMORY frames later), so it soon misses the
+    still side, the longest region; the side is still the edge that slid: the guess
+    stays the sliver's axis throughout (the side's 90 degrees from the third frame on,
+    before `LinkTracker.stopped_edges`)."""
+    tracker = LinkTracker(joint_range=(0.0, math.radians(120)), reach_back=2.0)
+    for frame in range(4):
+        mask = np.zeros((120, 160), dtype=np.uint8)
+        mask[20:80, 100 - 3 * frame:103 - 3 * frame] = 255
+        tracker.lines(mask)
+    for frame in range(2 * EDGE_MEMORY):
+        mask = np.zeros((120, 160), dtype=np.uint8)
+        mask[20:80, 91:94] = 255  # stopped 3 px on from its last place
+        degrees = 40 + frame
+        tip = (round(40 + 17 * math.cos(math.radians(degrees))),
+               round(90 - 17 * math.sin(math.radians(degrees))))
+        cv2.line(mask, (40, 90), tip, 255, thickness=3)
+        angle, _ = tracker.before_pivot(tracker.lines(mask))
+        assert math.degrees(angle) == pytest.approx(degrees, abs=4.0), frame
+    assert tracker.expected_edges == []  # the slide itself is forgotten by now
 
 
 @pytest.mark.parametrize("reseek", [False, True])
