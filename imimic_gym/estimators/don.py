@@ -35,10 +35,12 @@ Decisions where the paper is vague or inconsistent (each is also noted where it 
 - Before the pivot is agreed: the link's direction about the last solve's pivot, while
   it waits for the next solve to agree; before any solve, the longest moving region's
   axis, unless it is short (moving clutter) or lies where an occluder's sliding edge
-  should be or has stopped (`LinkTracker.before_pivot`). These guesses feed the path estimator too
-  (a guess that jumps by `GUESS_JUMP` restarts it), so omega does not wait for the
-  pivot, and the trust factor, with the guessed region's size as M_p. Before anything has moved,
-  DON reports the middle of the joint range with eta 0: a placeholder, not a reading.
+  should be or has stopped; where no region will do, the longest one left once the
+  sliding edges are erased from l_1 (`LinkTracker.before_pivot`). These guesses feed
+  the path estimator too (a guess that jumps by `GUESS_JUMP` restarts it), so omega does
+  not wait for the pivot, and the trust factor, with the guessed region's size as M_p.
+  Before anything has moved, DON reports the middle of the joint range with eta 0: a
+  placeholder, not a reading.
 - Object regression, pivot and radius (`geometry.py`). The paper adds a line per link
   for n links; we fit one per moving region of l_1 (its principal axis) for one link
   too. The link turns about a pivot that never moves, so its regions lie along rays
@@ -491,7 +493,7 @@ class DON:
         return Reading(self.angle, omega, -(1 - COAST_DECAY) * omega * self.fps, trust,
                        predicted=True)
 
-    def _before_pivot(self, lines: np.ndarray) -> Reading | None:
+    def _before_pivot(self, lines: np.ndarray, mask: np.ndarray) -> Reading | None:
         """The reading until a pivot is agreed: the link's direction about the last
         solve's pivot where there is one (`PivotEstimator.provisional`), else the longest
         moving region's axis (`LinkTracker.before_pivot`); else None (the last estimate).
@@ -506,7 +508,7 @@ class DON:
         reading = (None if provisional is None
                    else self.link.measure(lines, provisional, self.guess))
         if reading is None:
-            reading = self.link.before_pivot(lines)
+            reading = self.link.before_pivot(lines, mask)
         self.sizes.append(None if reading is None else reading[1])
         if reading is None:
             return None
@@ -570,7 +572,7 @@ class DON:
             lines = self.link.lines(mask)
             pivot = self.link.pivot()
             if pivot is None:
-                return self._before_pivot(lines)
+                return self._before_pivot(lines, mask)
             # DON layer 3 + object regression: where the link is, from l_1's regions.
             measured = self.link.measure(lines, pivot, self.angle, mask)
             slow = None if measured is not None else self._slow_reading()

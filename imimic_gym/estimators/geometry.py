@@ -651,15 +651,16 @@ class LinkTracker:
         self.radius = reach if self.radius is None else 0.9 * self.radius + 0.1 * reach
         return mean, reach
 
-    def _past_edges(self, mask: np.ndarray) -> np.ndarray:
+    def _past_edges(self, mask: np.ndarray, parallel_deg: float = PARALLEL_DEG
+                    ) -> np.ndarray:
         """The lines of ``mask`` with the expected occluder edges erased from it, less
-        those within PARALLEL_DEG of parallel to one of them (what is left of it)."""
+        those within ``parallel_deg`` of parallel to one of them (what is left of it)."""
         lines = component_lines(_erase_edges(mask, self.expected_edges), self.min_area)
         if len(lines):
             keep = np.ones(len(lines), bool)
+            parallel_sin = math.sin(math.radians(parallel_deg))
             for _, _, dx, dy, _ in self.expected_edges:
-                keep &= np.abs(lines[:, 2] * dy - lines[:, 3] * dx) > math.sin(
-                    math.radians(PARALLEL_DEG))
+                keep &= np.abs(lines[:, 2] * dy - lines[:, 3] * dx) > parallel_sin
             lines = lines[keep]
         return lines
 
@@ -696,11 +697,27 @@ class LinkTracker:
             kept.append((index, float(np.arctan2(-dy, dx)), length * area, distance, length))
         return kept
 
-    def before_pivot(self, lines: np.ndarray) -> tuple[float, float] | None:
+    def before_pivot(self, lines: np.ndarray, mask: np.ndarray | None = None
+                     ) -> tuple[float, float] | None:
         """Until the pivot is found: the longest elongated region's axis (rad), pointed
         by the joint range, and that region's extent along it (px: 3.4 standard
         deviations, the span `measure` takes a region to cover); None without a range or
         such a region.
+
+        ``mask``: the (h, w) mask ``lines`` came from. Where no region gives a guess, the
+        forearm may have merged with a board's sliding side into one blob too round to
+        guess from: the regions are found again with the edges expected in this frame
+        erased (as `measure` does after the pivot), leaving out what is left within
+        GUESS_EDGE_DEG of parallel to one of them (`measure`'s PARALLEL_DEG let the
+        remnants of a board's corner through: on development clip 16 of
+        `exp3-forearm-high` a guess 80 degrees off held for 16 frames). Development
+        clips, settled RMSE, without -> with, seeds 0-79 (chosen) / 80-159 (a check;
+        `benchmarks/don_dev_seeds.py --compare`): `exp3-forearm-high` 11.43 -> 10.82 deg
+        (27 clips better, 2 worse; 95% interval of the change -0.94 to -0.33) / 12.66 ->
+        12.26 (22 better, 4 worse; -0.83 to +0.04), `exp3-forearm-low` 6.23 -> 6.12 (16
+        better, 4 worse) / 7.27 -> 6.93 (15 better, 1 worse; -0.60 to -0.14),
+        `exp3-forearm-none` unchanged / 2.93 -> 2.91, the other scenarios unchanged.
+        The baselines pass no mask: their whole-object masks have no sliding edges.
 
         Not a short region (`GUESS_MIN_LENGTH`; development clips 0-39, settled RMSE
         with 2.5 -> 4: `exp3-forearm-high` 13.68 -> 12.59 deg, `exp3-forearm-low` 7.64 ->
@@ -727,6 +744,13 @@ class LinkTracker:
         -0.3); no clip of the other scenarios changed. The baselines guess here too, so
         both changes moved them as well (held-out settled RMSE, MOG2: `exp3-forearm-low`
         24.0 -> 22.7, `-high` 25.7 -> 24.2, `-none` 12.4 -> 11.2; CamShift within 0.2)."""
+        guess = self._axis_guess(lines)
+        if guess is None and mask is not None and self.expected_edges:
+            guess = self._axis_guess(self._past_edges(mask, GUESS_EDGE_DEG))
+        return guess
+
+    def _axis_guess(self, lines: np.ndarray) -> tuple[float, float] | None:
+        """`before_pivot` from ``lines`` alone."""
         if self.joint_range is None or len(lines) == 0:
             return None
         candidates = lines[(lines[:, 5] > 2.0) & (lines[:, 4] > GUESS_MIN_LENGTH)

@@ -240,16 +240,24 @@ def test_before_the_pivot_a_short_blob_is_no_guess() -> None:
     assert math.degrees(angle) == pytest.approx(45.0, abs=2.0)
 
 
-def test_before_the_pivot_a_region_where_a_sliding_edge_should_be_is_no_guess() -> None:
-    """Before a pivot: a board's side slides 3 px a frame, then merges with the forearm
-    and tilts 4 degrees, too far to be followed as the same edge. It is still the longest
-    region, but it lies where the sliding edge should be: the guess is the forearm's
-    short sliver at 45 degrees, not the board's side at about 90."""
+def _tracker_after_a_board_side_slid() -> LinkTracker:
+    """A tracker before any pivot (a joint range of 0-120 degrees) that has seen a board's
+    vertical side, 60 px long, slide left 3 px a frame for four frames, from x = 100 to 91
+    (working px); next it should be at x = 88."""
     tracker = LinkTracker(joint_range=(0.0, math.radians(120)), reach_back=2.0)
     for frame in range(4):
         mask = np.zeros((120, 160), dtype=np.uint8)
         mask[20:80, 100 - 3 * frame:103 - 3 * frame] = 255
         tracker.lines(mask)
+    return tracker
+
+
+def test_before_the_pivot_a_region_where_a_sliding_edge_should_be_is_no_guess() -> None:
+    """Before a pivot: a board's side slides 3 px a frame, then merges with the forearm
+    and tilts 4 degrees, too far to be followed as the same edge. It is still the longest
+    region, but it lies where the sliding edge should be: the guess is the forearm's
+    short sliver at 45 degrees, not the board's side at about 90."""
+    tracker = _tracker_after_a_board_side_slid()
     mask = np.zeros((120, 160), dtype=np.uint8)
     top, bottom = (89 + 2, 20), (89 - 2, 80)  # 4 degrees off vertical, 3 px on
     cv2.line(mask, top, bottom, 255, thickness=3)
@@ -267,14 +275,10 @@ def test_before_the_pivot_a_sliding_edge_that_stopped_is_still_no_guess() -> Non
     still side, the longest region; the side is still the edge that slid: the guess
     stays the sliver's axis throughout (the side's 90 degrees from the third frame on,
     before `LinkTracker.stopped_edges`)."""
-    tracker = LinkTracker(joint_range=(0.0, math.radians(120)), reach_back=2.0)
-    for frame in range(4):
-        mask = np.zeros((120, 160), dtype=np.uint8)
-        mask[20:80, 100 - 3 * frame:103 - 3 * frame] = 255
-        tracker.lines(mask)
+    tracker = _tracker_after_a_board_side_slid()
     for frame in range(2 * EDGE_MEMORY):
         mask = np.zeros((120, 160), dtype=np.uint8)
-        mask[20:80, 91:94] = 255  # stopped 3 px on from its last place
+        mask[20:80, 91:94] = 255  # stopped where it last was
         degrees = 40 + frame
         tip = (round(40 + 17 * math.cos(math.radians(degrees))),
                round(90 - 17 * math.sin(math.radians(degrees))))
@@ -282,6 +286,22 @@ def test_before_the_pivot_a_sliding_edge_that_stopped_is_still_no_guess() -> Non
         angle, _ = tracker.before_pivot(tracker.lines(mask))
         assert math.degrees(angle) == pytest.approx(degrees, abs=4.0), frame
     assert tracker.expected_edges == []  # the slide itself is forgotten by now
+
+
+def test_before_the_pivot_a_forearm_merged_with_a_sliding_edge_is_found_past_it() -> None:
+    """Before a pivot: a board's side slides 3 px a frame; then the forearm's sliver, at
+    30 degrees, touches it, and the two are one region lying along the side: no guess
+    from the regions alone. Given the mask, the side is erased where it should be and the
+    sliver left over gives the guess."""
+    tracker = _tracker_after_a_board_side_slid()
+    mask = np.zeros((120, 160), dtype=np.uint8)
+    mask[20:80, 88:91] = 255  # the side, where its slide puts it
+    cv2.line(mask, (59, 67), (88, 50), 255, thickness=4)  # the sliver, up to the side
+    lines = tracker.lines(mask)
+    assert len(lines) == 1
+    assert tracker.before_pivot(lines) is None
+    angle, _ = tracker.before_pivot(lines, mask)
+    assert math.degrees(angle) == pytest.approx(30.0, abs=4.0)
 
 
 @pytest.mark.parametrize("reseek", [False, True])
