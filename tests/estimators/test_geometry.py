@@ -290,9 +290,9 @@ def test_before_the_pivot_a_sliding_edge_that_stopped_is_still_no_guess() -> Non
 
 def test_before_the_pivot_a_forearm_merged_with_a_sliding_edge_is_found_past_it() -> None:
     """Before a pivot: a board's side slides 3 px a frame; then the forearm's sliver, at
-    30 degrees, touches it, and the two are one region lying along the side: no guess
-    from the regions alone. Given the mask, the side is erased where it should be and the
-    sliver left over gives the guess."""
+    30 degrees, touches it, and the two are one region too round to guess from (the
+    ratio of its axes is under 2): no guess from the regions alone. Given the mask, the
+    side is erased where it should be and the sliver left over gives the guess."""
     tracker = _tracker_after_a_board_side_slid()
     mask = np.zeros((120, 160), dtype=np.uint8)
     mask[20:80, 88:91] = 255  # the side, where its slide puts it
