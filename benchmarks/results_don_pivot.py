@@ -165,6 +165,35 @@ def render(load, table) -> str:
   read as the link (0-79: high 11.79 -> 11.51; 80-159: 12.67 -> 12.61, the 95%
   interval -0.5 to +0.5).
 
+  Then two more cases of the guess before the pivot, drawn frame by frame (chosen on
+  development clips 0-79, checked on 80-159). A board whose sides stop sliding: their
+  still regions were the longest, and the guess held one, 66 degrees off, for 27 frames
+  (development seed 1); now a long still region lying along a long edge that slid, or
+  along one that had stopped the frame before, is no guess either
+  (`LinkTracker.stopped_edges`). And a forearm merged with the board's side into one
+  blob too round to guess from (seed 10: a guess held 16 frames): where no region gives
+  a guess, the edges expected in the frame are erased from l_1, as after the pivot, and
+  the guess taken from what is left, less the remnants within 20 degrees of parallel to
+  an edge (`LinkTracker.before_pivot` given the mask). Development settled RMSE, seeds
+  0-79 / 80-159, before -> after the first -> after both: `exp3-forearm-high` 11.79 ->
+  11.43 -> 10.82 / 12.67 -> 12.66 -> 12.26, `exp3-forearm-low` 7.05 -> 6.23 -> 6.12 /
+  7.60 -> 7.27 -> 6.93; `exp2-servo` +0.01 on 80-159 with the first; the other
+  scenarios unchanged. Held-out, measured once after each: `-high` 14.63 -> 14.38 ->
+  13.40, `-low` 12.62 -> 13.03 -> 12.90 (one clip 13.6 -> 17.7 with the first). Tried
+  and not kept: a stale guess fading to the middle of the joint range (before these
+  two, seeds 0-79: high -0.5, low -0.2, with clips 5.7 -> 13.3 and 6.9 -> 14.1; after
+  them, reckoned from the frames' errors, about -0.15 on high and none on low);
+  guessing from the slow difference where l_1 gives none (its regions were mostly the
+  board's sliding bands: on seeds 0-39 of `-high` the frames guessed so were 31 degrees
+  off, RMS, in view and 45 behind the board); keeping a slid edge that stopped among
+  the expected edges that `measure` erases too (high +0.12, 35 of 80 clips worse);
+  `measure`'s past-edge remnants dropped within 15 or 20 degrees instead of 10 (high
+  +0.13 / +0.27); `measure` looking past the edges only while its gates are up (high
+  +1.47); past the edges for the readings about a provisional pivot too (low -0.01);
+  a stopped edge matched with the direction of the edge that first slid rather than
+  last frame's, or the stopped edges erased too before the second look (high -0.03 /
+  -0.06, low +0.09 / +0.01: noise).
+
   Where the rest of the error is, on development clips 0-{sources['seeds'] - 1} (command:
   `.venv/bin/python benchmarks/don_error_sources.py --json
   benchmarks/results/don_error_sources.json`; share of the squared error by DON's state
