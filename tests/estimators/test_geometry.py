@@ -304,6 +304,24 @@ def test_before_the_pivot_a_forearm_merged_with_a_sliding_edge_is_found_past_it(
     assert math.degrees(angle) == pytest.approx(30.0, abs=4.0)
 
 
+def test_before_the_pivot_what_is_left_of_a_board_s_corner_is_no_guess() -> None:
+    """As above, with the board's corner below the side, 14.5 degrees off it: the whole
+    lies along the side, so no guess from the regions alone; erasing the side leaves the
+    corner's stub, longer than the sliver. Left out within GUESS_EDGE_DEG (20) of
+    parallel to the side, the guess is the sliver's 31 degrees; within `measure`'s 10,
+    the stub would be the guess, 73 degrees off."""
+    tracker = _tracker_after_a_board_side_slid()
+    mask = np.zeros((120, 160), dtype=np.uint8)
+    mask[20:80, 88:91] = 255  # the side
+    cv2.line(mask, (89, 79), (96, 106), 255, thickness=3)  # the corner below it
+    cv2.line(mask, (70, 61), (88, 50), 255, thickness=3)  # the sliver, up to the side
+    lines = tracker.lines(mask)
+    assert len(lines) == 1
+    assert tracker.before_pivot(lines) is None
+    angle, _ = tracker.before_pivot(lines, mask)
+    assert math.degrees(angle) == pytest.approx(math.degrees(math.atan2(11, 18)), abs=3.0)
+
+
 @pytest.mark.parametrize("reseek", [False, True])
 @pytest.mark.parametrize("degrees_per_frame", [1.5, 4.0])
 def test_slivers_of_a_turning_bar_do_not_slide(degrees_per_frame: float, reseek: bool) -> None:
