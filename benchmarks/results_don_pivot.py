@@ -192,7 +192,15 @@ def render(load, table) -> str:
   +1.47); past the edges for the readings about a provisional pivot too (low -0.01);
   a stopped edge matched with the direction of the edge that first slid rather than
   last frame's, or the stopped edges erased too before the second look (high -0.03 /
-  -0.06, low +0.09 / +0.01: noise).
+  -0.06, low +0.09 / +0.01: noise); a guess kept off an edge over 1.7 of its standard
+  deviations along it rather than 1, as far as it is erased (a board's side split in
+  two left its lower piece past the end: 0-79 high -0.02, low -0.08; 80-159 -0.10,
+  +0.02: too small to matter); pieces of such a side shorter than 12 px std counted
+  as stopped edges too (the forearm beside a side was caught: 0-79 high +0.33, low
+  +0.46); after the pivot, a short region (under 4 std) that starts over 0.5-0.65 of
+  the radius out not read as the link (a blob of clutter at the forearm's reach was:
+  0-79 every scenario a little better, high -0.10 to -0.20, but 80-159 low +0.29,
+  `exp1-noisy-fast` +0.24, each with clips up to 20 degrees either way).
 
   Where the rest of the error is, on development clips 0-{sources['seeds'] - 1} (command:
   `.venv/bin/python benchmarks/don_error_sources.py --json
