@@ -335,8 +335,9 @@ def _along(line: list[float], edge: tuple[float, ...], across_px: float = 3.0,
 
 def _edge_along(line: list[float], edges: list[tuple[float, ...]]
                 ) -> tuple[float, ...] | None:
-    """The first of ``edges`` that ``line`` lies along as a guess before the pivot sees
-    it (`_along` within GUESS_EDGE_PX and GUESS_EDGE_DEG), or None."""
+    """The first of ``edges`` that ``line`` (a `component_lines` row) lies along by the
+    guess's tolerances before the pivot (`_along` within GUESS_EDGE_PX and
+    GUESS_EDGE_DEG of parallel), or None."""
     for edge in edges:
         if _along(line, edge, GUESS_EDGE_PX, _GUESS_PARALLEL_SIN):
             return edge
@@ -463,10 +464,10 @@ class LinkTracker:
         if self.reseek:
             self._seek_again(lines, feeds, edges)
         self._expect_edges(lines, [k for k, _ in follows])
-        if self.pivot() is None:
+        pivot = self.pivot()
+        if pivot is None:
             self._note_stopped_edges(lines)
         self._previous_lines = lines
-        pivot = self.pivot()
         if pivot is not None and (self._radius_pivot is None
                                   or np.hypot(*(pivot - self._radius_pivot)) > 2.0):
             self.radius, self._radius_pivot = None, pivot  # r was measured from elsewhere
@@ -513,9 +514,9 @@ class LinkTracker:
         `exp3-forearm-high` 11.79 -> 11.43 (10 better, 1 worse; clip 1 29.3 -> 10.6) /
         12.67 -> 12.66; `exp2-servo` unchanged / 0.46 -> 0.48 (a long side of the
         servo's horn slid, then its still region was skipped: two clips 0.7 -> 1.2 and
-        0.3 -> 0.6); the other scenarios unchanged. Matching at the
-        tighter 3 px and 6 degrees of `_along`'s default lost a board's side that
-        stepped 4 px (high -0.06, low -0.28 on 0-79).
+        0.3 -> 0.6); the other scenarios unchanged. Matching at the tighter 3 px and 6
+        degrees of `_along`'s default lost a board's side that stepped 4 px (high -0.06,
+        low -0.28 on 0-79).
 
         A stopped edge is matched with the last frame's, not with the edge that first
         slid, so a long region that turns under GUESS_EDGE_DEG a frame beside it stays
@@ -764,18 +765,18 @@ class LinkTracker:
         Not a sliding edge, nor a region along where a long one should be now
         (`GUESS_EDGE_PX`) or has stopped (`stopped_edges`): a board's side merged with
         the forearm, no longer parallel enough to its last self to be followed, was the
-        longest region, and the guess
-        held its direction, over 70 degrees off, until the next one (development clips
-        0-39, settled RMSE: `exp3-forearm-high` 15.17 -> 13.68 deg, `exp3-forearm-low`
-        9.79 -> 7.64, `exp3-forearm-none` 2.64 -> 2.64. Counting edges of any length:
-        within 8 px and 20 degrees none 2.66, as the forearm's own region, slid with the
-        body, ruled the forearm out; within 3 px and 6 degrees high 14.68, low 9.19;
-        within 12 px 13.88 and 7.03 but none 2.75). Seeds 0-79 / 80-159:
-        `exp3-forearm-high` 14.29 -> 13.13 / 14.58 -> 13.86 (95% interval of the change on
-        80-159 -1.4 to -0.1), `exp3-forearm-low` 9.20 -> 7.91 / 9.20 -> 8.31 (-1.5 to
-        -0.3); no clip of the other scenarios changed. The baselines guess here too, so
-        both changes moved them as well (held-out settled RMSE, MOG2: `exp3-forearm-low`
-        24.0 -> 22.7, `-high` 25.7 -> 24.2, `-none` 12.4 -> 11.2; CamShift within 0.2)."""
+        longest region, and the guess held its direction, over 70 degrees off, until the
+        next one (development clips 0-39, settled RMSE: `exp3-forearm-high` 15.17 ->
+        13.68 deg, `exp3-forearm-low` 9.79 -> 7.64, `exp3-forearm-none` 2.64 -> 2.64.
+        Counting edges of any length: within 8 px and 20 degrees none 2.66, as the
+        forearm's own region, slid with the body, ruled the forearm out; within 3 px and
+        6 degrees high 14.68, low 9.19; within 12 px 13.88 and 7.03 but none 2.75).
+        Seeds 0-79 / 80-159: `exp3-forearm-high` 14.29 -> 13.13 / 14.58 -> 13.86 (95%
+        interval of the change on 80-159 -1.4 to -0.1), `exp3-forearm-low` 9.20 -> 7.91
+        / 9.20 -> 8.31 (-1.5 to -0.3); no clip of the other scenarios changed. The
+        baselines guess here too, so both changes moved them as well (held-out settled
+        RMSE, MOG2: `exp3-forearm-low` 24.0 -> 22.7, `-high` 25.7 -> 24.2, `-none` 12.4
+        -> 11.2; CamShift within 0.2)."""
         guess = self._axis_guess(lines)
         if guess is None and mask is not None and self.expected_edges:
             guess = self._axis_guess(self._past_edges(mask, GUESS_EDGE_DEG))
