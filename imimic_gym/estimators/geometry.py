@@ -531,14 +531,9 @@ class LinkTracker:
         them as well (held-out settled RMSE, MOG2: `exp2-servo` 2.41 -> 2.59,
         `exp3-forearm-low` 22.68 -> 22.15; CamShift within 0.3)."""
         known = self._guess_edges()
-        stopped = []
-        for row, sliding in zip(lines.tolist(), self.sliding, strict=True):
-            if sliding or row[4] <= GUESS_EDGE_LENGTH:
-                continue
-            edge = _edge_along(row, known)
-            if edge is not None:
-                stopped.append(tuple(row[:5]))
-        self.stopped_edges = stopped
+        self.stopped_edges = [
+            tuple(row[:5]) for row, sliding in zip(lines.tolist(), self.sliding, strict=True)
+            if not sliding and row[4] > GUESS_EDGE_LENGTH and _edge_along(row, known)]
 
     def _guess_edges(self) -> list[tuple[float, ...]]:
         """The edges no guess before the pivot may lie along: the long ones that slid
