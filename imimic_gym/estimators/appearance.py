@@ -20,7 +20,17 @@ How.
   along the link. A colour that reads nothing, or something else than DON, in 5 vouched
   frames running was learned from something else (a link first seen in part, blurred
   into its background): it is learned again. (`LinkedDON` counts only the frames with
-  no reading: its fit is often off by more than this layer.)
+  no reading: its fit is often off by more than this layer.) A first colour that
+  matches over MAX_SHARE of the square the link can reach is the wall's, from a ray run
+  on past the link's tip, and is not learned. Settled RMSE on development clips, without
+  -> with, seeds 0-79 (chosen; 0.03 and 0.05 also tried) / 80-159 (a check):
+  `exp3-forearm-high` 10.82 -> 10.15 deg / 12.26 -> 11.80, `exp3-forearm-low` 6.12 ->
+  5.82 / 6.93 -> 6.74, `exp3-forearm-none` 3.52 -> 3.24 / 2.91 -> 2.91,
+  `exp1-noisy-fast` 13.26 -> 12.99 / 11.56 -> 10.95, at most one clip worse per
+  scenario (the most, `-low` clip 141: 11.2 -> 16.0), `exp2-servo` and `default`
+  unchanged (`benchmarks/don_dev_seeds.py --compare`). `LinkedDON` learns any colour:
+  with the rule, `chain-3`'s first two joints went 3.48 -> 4.35 and 8.46 -> 9.18 deg
+  (`benchmarks/don_links_dev_seeds.py`).
 - Match of a pixel: exp(-(d / SIGMA)^2), d the sum over RGB of absolute differences from
   the colour (under 0.1 counts as none). A ray's match is the mean along it, from 0.3 to
   0.95 radii from the pivot.
@@ -73,6 +83,10 @@ OFFSETS = np.array([-2.0, 0.0, 2.0])  # sideways ray offsets, working px
 FRACTIONS = np.linspace(0.3, 0.95, 14)  # where along the link a ray is sampled, radii
 SIGMA = 35.0  # summed absolute RGB difference (grey levels) at which a match is exp(-1)
 MIN_MATCH, MIN_CONTRAST = 0.25, 0.15
+# A first colour matching (within SIGMA) more than this share of the square the link can
+# reach (1.6 radii about the pivot) is the background's: a link is a bar from the pivot,
+# its width a quarter of its length at most (a forearm seen close), about 2.5% of it.
+MAX_SHARE = 0.1
 LEARNING_RATE = 0.1
 CORRIDOR_PX, CORRIDOR_STEP = 4.0, 0.5  # the line fit's half-width and sample spacing, px
 # Match (0-255) per summed absolute difference (0-255, saturated); under 0.1 is none.
@@ -97,10 +111,13 @@ class LinkAppearance:
             the frame counts against the colour (RELEARN such frames running and it is
             learned anew); ``math.inf``: only vouched frames without a reading count,
             for a caller whose vouched readings are often off by more (`LinkedDON`).
+        max_share: a first colour matching more than this share of the square the link
+            can reach is not learned (`_background_colour`); None: any colour is.
     """
 
-    def __init__(self, disagree: float = DISAGREE) -> None:
-        self.disagree = disagree
+    def __init__(self, disagree: float = DISAGREE, max_share: float | None = MAX_SHARE
+                 ) -> None:
+        self.disagree, self.max_share = disagree, max_share
         self.reset()
 
     def reset(self) -> None:
@@ -148,7 +165,10 @@ class LinkAppearance:
         px, py = float(pivot[0]), float(pivot[1])
         if self.colour is None:
             if vouched:
-                self.colour = self._first_colour(image, px, py, radius, prior)
+                colour = self._first_colour(image, px, py, radius, prior)
+                if colour is not None and not self._background_colour(
+                        image, px, py, radius, colour):
+                    self.colour = colour
             return None
         first, end = self._search(round(prior / STEP), vouched, directions, lost)
         if end <= first:
@@ -203,6 +223,28 @@ class LinkAppearance:
             return None
         core = difference >= np.median(difference[distinct])
         return (*np.median(link[core], axis=0).tolist(), 0.0)
+
+    def _background_colour(self, image: np.ndarray, px: float, py: float, radius: float,
+                           colour: tuple[float, ...]) -> bool:
+        """Whether ``colour`` matches (within SIGMA) more than ``max_share`` of the square
+        about the pivot (px, py) that the link can reach, 1.6 ``radius`` either side (working
+        px): the wall's, not the link's. A vouched ray can run past the link's tip (a
+        radius estimate too long, a link half behind a board) and its core be the wall
+        beyond: the layer then reads the wall, agreeing with DON wherever the link lies
+        against it, and once DON has lost the link (``lost``) it reads the wall wherever
+        the joint can point. On development clips of `exp3-forearm-high`, the first colours
+        learned from the link matched 0.3-1.7% of this square, those learned from
+        something else up to 34%. The share is of the reach, not of the frame: a close
+        view of the arm does not make the link's colour look like the wall's."""
+        if self.max_share is None:
+            return False
+        reach = 1.6 * radius
+        square = image[max(int(py - reach), 0):max(int(py + reach) + 1, 0),
+                       max(int(px - reach), 0):max(int(px + reach) + 1, 0)]
+        if square.size == 0:
+            return False
+        matching = cv2.countNonZero(cv2.compare(_match(square, colour), 94, cv2.CMP_GT))
+        return matching > self.max_share * square.shape[0] * square.shape[1]
 
     def _search(self, prior: int, vouched: bool, directions: tuple[float, float] | None,
                 lost: bool) -> tuple[int, int]:

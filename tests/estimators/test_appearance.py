@@ -65,6 +65,33 @@ def test_a_ray_across_the_bare_wall_teaches_no_colour() -> None:
     assert layer.colour is None
 
 
+def short_bar(angle: float, share: float) -> np.ndarray:
+    """A bar ``share`` of RADIUS long on the wall: a radius estimate too long, or a link
+    half behind a board, so that a vouched ray runs on over the wall past its tip."""
+    frame = wall()
+    draw_line(frame, PIVOT, angle, share * RADIUS, SKIN, 3)
+    return cv2.GaussianBlur(frame, (3, 3), 0.7)
+
+
+def test_a_colour_found_all_over_the_links_reach_is_not_learned() -> None:
+    """A ray running 60% over the wall past the bar's tip picks the wall's grey as the
+    bar's colour (so the layer would read the wall); that colour matches a third of the
+    square the link can reach, and is not learned. A thick bar, a quarter as wide as it is
+    long, is."""
+    angle = math.radians(40)
+    frame = short_bar(angle, 0.4)
+    anything = LinkAppearance(max_share=None)
+    anything.update(frame, PIVOT, RADIUS, angle, True, 1.0)
+    assert np.allclose(anything.colour[:3], GREY, atol=10)
+    layer = LinkAppearance()
+    assert layer.update(frame, PIVOT, RADIUS, angle, True, 1.0) is None
+    assert layer.colour is None
+    thick = wall()
+    draw_line(thick, PIVOT, angle, RADIUS, SKIN, round(RADIUS / 4))
+    layer.update(cv2.GaussianBlur(thick, (3, 3), 0.7), PIVOT, RADIUS, angle, True, 1.0)
+    assert np.allclose(layer.colour[:3], SKIN, atol=25)
+
+
 @pytest.mark.parametrize("prior_error_deg", [-9.0, -4.0, 0.0, 5.0, 10.0])
 def test_the_bar_is_read_to_a_fraction_of_a_degree_from_a_rough_prior(
         prior_error_deg: float) -> None:
