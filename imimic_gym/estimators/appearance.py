@@ -43,13 +43,13 @@ How.
   without a reading, nowhere until DON vouches again, unless DON says it has lost the
   link (below): then everywhere. Only where the joint can turn. A best match under 0.25,
   or under 0.15 above the lower quartile's, is no reading.
-- Everywhere once DON has lost the link is DON's option (``search_when_lost``, off by
-  default): a forearm that comes out from behind the board and rests stays lost to the
-  motion layers until it moves (development clip 3 of `exp3-forearm-high`: held 12-19
-  degrees off over frames 88-100 with the forearm in view; within 1.2 with the option).
-  The risk is a colour learned partly from something else: on clip 18 it is half the
-  board's brown, and the search reads the board's edge (settled RMSE 9.5 -> 27.7 deg).
-  `DON` gives the figures for and against.
+- Everywhere once DON has lost the link (DON's ``search_when_lost``, on by default): a
+  forearm that comes out from behind the board and rests stays lost to the motion
+  layers until it moves (development clip 3 of `exp3-forearm-high`: held 12-19 degrees
+  off over frames 88-100 with the forearm in view; within 1.2 with the search). The
+  risk is a colour learned from something else: before MAX_SHARE, on clip 18 the colour
+  was half the board's brown and the search read the board's edge (settled RMSE 9.5 ->
+  27.7 deg). `DON` gives the figures.
 - Direction. The best ray is a 2-degree guess. The direction comes from the straight line
   fitted to the matching pixels of a corridor 4 px either side of it (sideways offset
   against distance, weighted by the match): a line's direction does not depend on where

@@ -316,16 +316,21 @@ class DON:
             layers; False for the paper's layers alone.
         search_when_lost: where the motion layers have lost the link (it vanished while
             turning: ``hidden``), let the appearance layer look for its colour wherever
-            the joint can turn, not only near its own last reading. Off by default: it
-            finds a forearm that comes out from behind an occluder and rests, but it
-            also jumps to the occluder's edge where the colour was learned partly from
-            the occluder. Settled RMSE, off -> on, measured before ``reseek``:
-            development seeds 0-79 `exp3-forearm-high` 19.40 -> 17.74 deg,
-            `exp3-forearm-low` 11.85 -> 11.15 (better on 58 and 53 of 80 clips, worse on
-            9 and 4); seeds 80-159 19.83 -> 18.97 and 12.22 -> 11.99 (95% intervals of
-            the change both span 0; clips up to 34 degrees worse); held-out seeds
-            1000-1009 20.43 -> 26.85 and 17.18 -> 19.40 (worse on 5 and 3 of 10, by up to
-            32 degrees); `exp1-noisy-fast` better throughout (held-out 12.28 -> 8.92).
+            the joint can turn, not only near its own last reading: it finds a forearm
+            that comes out from behind an occluder and rests, which the motion layers do
+            not see until it moves. On by default since the appearance layer stopped
+            learning the wall's colour (`appearance.MAX_SHARE`): before that it jumped
+            to whatever had that colour, and it lost on held-out clips as often as it
+            won, by up to 32 degrees. Settled RMSE on development clips, off -> on,
+            seeds 0-79 / 80-159 (`benchmarks/don_dev_seeds.py --param
+            search_when_lost=False`): `exp3-forearm-high` 10.15 -> 8.72 deg (62 clips
+            better, 6 worse) / 11.80 -> 10.39 (62 better, 13 worse; 95% interval of the
+            change -2.3 to -0.5), `exp3-forearm-low` 5.82 -> 5.16 / 6.74 -> 5.59 (-1.6
+            to -0.8), `exp3-forearm-none` 3.24 -> 3.03 / 2.91 -> 2.67,
+            `exp1-noisy-fast` 12.99 -> 11.11 / 10.95 -> 9.14, `exp2-servo` and `default`
+            unchanged. What it still gets wrong is a colour like the link's where the
+            link cannot be: the blurred edge between a brown board and the pale wall
+            looks like skin (development clip 75 of `exp3-forearm-low`, 4.1 -> 12.6).
         min_area: fewest moving pixels (working resolution) that count as motion.
         reseek: leave rigid edges out and replace a pivot that a second estimate explains
             better (`geometry.LinkTracker`); False: the first pivot agreed is kept.
@@ -345,7 +350,7 @@ class DON:
         min_area: int = 12,
         joint_range: tuple[float, float] | None = None,
         appearance: bool = True,
-        search_when_lost: bool = False,
+        search_when_lost: bool = True,
         reseek: bool = True,
     ) -> None:
         self.motion = MotionMask(window, gaussian, threshold, working_height)

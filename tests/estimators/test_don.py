@@ -299,10 +299,11 @@ def test_a_board_crossing_the_first_movement_does_not_fix_a_wrong_pivot() -> Non
 def test_a_forearm_back_in_view_after_the_board_is_read_while_it_rests(
         search_when_lost: bool) -> None:
     """exp3-forearm-high, development seed 3: the forearm vanishes behind the board while
-    turning (DON: hidden) and comes out at frame 88, nearly at rest. The motion layers
-    hold the angle it vanished at, 12-19 degrees off, until it moves again (the default);
-    with ``search_when_lost`` the appearance layer looks for its colour everywhere the
-    elbow can turn and reads it (measured within 1.2 degrees over frames 88-100)."""
+    turning (DON: hidden) and comes out at frame 88, nearly at rest. Without
+    ``search_when_lost`` the motion layers hold the angle it vanished at, 12-19 degrees
+    off, until it moves again; with it (the default) the appearance layer looks for its
+    colour everywhere the elbow can turn and reads it (measured within 1.2 degrees over
+    frames 88-100)."""
     from imimic_gym.clips import load_clip
     from imimic_gym.clips.scenarios import get_scenario
 
