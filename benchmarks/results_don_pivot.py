@@ -233,7 +233,18 @@ def render(load, table) -> str:
   the search, but a forearm seen close covers about 2.5% of it); a reading of the
   remnants past the edges (`measure` given the mask) refused where it reaches over 1.5
   radii from the pivot (0-79 `-high` -0.28, 80-159 +0.37, one clip 6.8 -> 24.1); the
-  slow link's reading also while the link is hidden (`-low` +0.62, `-high` +0.24).
+  slow link's reading also while the link is hidden (`-low` +0.62, `-high` +0.24);
+  after the search was on, the radius measured about the provisional pivot kept when
+  the agreed one lies within 2 px of it, and DON's direction started from the last
+  guess, so that the gates and the appearance layer work from the first agreed frame
+  (development clip 26 of `-high` lost a forearm in full view there for 24 frames:
+  `-high` -0.01 / +0.29, `-low` +0.13 / +0.01, both +0.33 and +0.12); the layer's
+  colour taught by readings with eta from 0.6 or 0.7 instead of 0.8 (`-high` -0.51 /
+  -0.29, `-low` -0.22 / -0.26, but 17-25 clips worse in each scenario, some by over 20
+  degrees, `exp1-noisy-fast` +0.27 with 0.7); no least match for the layer's best ray,
+  its contrast alone deciding (a forearm half behind the board matches along half of
+  it: 0-79 `-high` -0.40, `-none` -0.18; 80-159 `-high` +0.12, `-low` -0.19,
+  `exp2-servo` 0.48 -> 0.57 with 27 clips worse).
 
   Where the rest of the error is, on development clips 0-{sources['seeds'] - 1} (command:
   `.venv/bin/python benchmarks/don_error_sources.py --json
