@@ -328,9 +328,13 @@ class DON:
             change -2.3 to -0.5), `exp3-forearm-low` 5.82 -> 5.16 / 6.74 -> 5.59 (-1.6
             to -0.8), `exp3-forearm-none` 3.24 -> 3.03 / 2.91 -> 2.67,
             `exp1-noisy-fast` 12.99 -> 11.11 / 10.95 -> 9.14, `exp2-servo` and `default`
-            unchanged. What it still gets wrong is a colour like the link's where the
-            link cannot be: the blurred edge between a brown board and the pale wall
-            looks like skin (development clip 75 of `exp3-forearm-low`, 4.1 -> 12.6).
+            unchanged; held-out seeds 1000-1009, once: `exp3-forearm-high` 12.95 ->
+            13.73 (five clips better by up to 2.1, two worse by 4 and 9),
+            `exp3-forearm-low` 12.21 -> 11.72 (one clip 25.1 -> 39.8, three 5-9
+            better), `exp1-noisy-fast` 12.32 -> 9.40. What it still gets wrong is a
+            colour like the link's where the link cannot be: the blurred edge between a
+            brown board and the pale wall looks like skin (development clip 75 of
+            `exp3-forearm-low`, 4.1 -> 12.6).
         min_area: fewest moving pixels (working resolution) that count as motion.
         reseek: leave rigid edges out and replace a pivot that a second estimate explains
             better (`geometry.LinkTracker`); False: the first pivot agreed is kept.
