@@ -244,7 +244,11 @@ def render(load, table) -> str:
   degrees, `exp1-noisy-fast` +0.27 with 0.7); no least match for the layer's best ray,
   its contrast alone deciding (a forearm half behind the board matches along half of
   it: 0-79 `-high` -0.40, `-none` -0.18; 80-159 `-high` +0.12, `-low` -0.19,
-  `exp2-servo` 0.48 -> 0.57 with 27 clips worse).
+  `exp2-servo` 0.48 -> 0.57 with 27 clips worse); a wide search's best ray needing a
+  contrast of 0.25 or 0.35 over the lower quartile instead of 0.15 (`-high` -0.01 /
+  -0.02 with 33 clips worse, `exp1-noisy-fast` +0.00 / +0.32); the prediction layer
+  on (`trust_threshold` 0.3) with the search on (`-high` -0.07, `-low` +0.17,
+  `exp1-noisy-fast` +0.87).
 
   Where the rest of the error is, on development clips 0-{sources['seeds'] - 1} (command:
   `.venv/bin/python benchmarks/don_error_sources.py --json
