@@ -19,8 +19,8 @@ by the interval and the counts, on more seeds where they are close.
         --scenarios exp3-forearm-low exp3-forearm-high
     .venv/bin/python benchmarks/don_dev_seeds.py --param gaussian=15 --param threshold=12
     .venv/bin/python benchmarks/don_dev_seeds.py --seeds 0 80 --json /tmp/before.json
-    .venv/bin/python benchmarks/don_dev_seeds.py --seeds 0 80 \
-        --param search_when_lost=True --compare /tmp/before.json
+    .venv/bin/python benchmarks/don_dev_seeds.py --seeds 0 80 \\
+        --param search_when_lost=False --compare /tmp/before.json
 """
 
 from __future__ import annotations
