@@ -248,7 +248,9 @@ def render(load, table) -> str:
   contrast of 0.25 or 0.35 over the lower quartile instead of 0.15 (`-high` -0.01 /
   -0.02 with 33 clips worse, `exp1-noisy-fast` +0.00 / +0.32); the prediction layer
   on (`trust_threshold` 0.3) with the search on (`-high` -0.07, `-low` +0.17,
-  `exp1-noisy-fast` +0.87).
+  `exp1-noisy-fast` +0.87); after the pivot, where no region is read, the guess
+  `before_pivot` would make taken if within 20 degrees of the last direction (`-high`
+  +0.05, `-low` +0.17, `exp1-noisy-fast` -0.70, with 21-31 clips worse in each).
 
   Where the rest of the error is, on development clips 0-{sources['seeds'] - 1} (command:
   `.venv/bin/python benchmarks/don_error_sources.py --json
