@@ -67,6 +67,7 @@ import math
 import cv2
 import numpy as np
 
+from imimic_gym.estimators.geometry import reach_square
 from imimic_gym.metrics import wrap_angle
 
 __all__ = ["LinkAppearance"]
@@ -238,9 +239,7 @@ class LinkAppearance:
         view of the arm does not make the link's colour look like the wall's."""
         if self.max_share is None:
             return False
-        reach = 1.6 * radius
-        square = image[max(int(py - reach), 0):max(int(py + reach) + 1, 0),
-                       max(int(px - reach), 0):max(int(px + reach) + 1, 0)]
+        square = image[reach_square(np.array([px, py]), radius)]
         if square.size == 0:
             return False
         matching = cv2.countNonZero(cv2.compare(_match(square, colour), 94, cv2.CMP_GT))

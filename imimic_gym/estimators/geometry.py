@@ -70,6 +70,16 @@ def pointing_range(base: float, joint_range: tuple[float, float]) -> tuple[float
     return base + (lo + hi) / 2, (hi - lo) / 2 + math.radians(RANGE_MARGIN_DEG)
 
 
+def reach_square(pivot: np.ndarray, radius: float) -> tuple[slice, slice]:
+    """Row and column slices (working px) of the square about ``pivot`` (x, y) that a
+    link of ``radius`` px can reach past `measure`'s radius gate: 1.6 radii either side,
+    clipped at the image's top and left (numpy clips the other two)."""
+    reach = 1.6 * radius
+    (left, top), (right, bottom) = (np.floor(np.asarray(pivot) - reach).astype(int),
+                                    np.ceil(np.asarray(pivot) + reach).astype(int))
+    return slice(max(top, 0), max(bottom, 0)), slice(max(left, 0), max(right, 0))
+
+
 def component_lines(mask: np.ndarray, min_area: int) -> np.ndarray:
     """Principal axis of every 8-connected component of ``mask`` with at least
     ``min_area`` pixels, from its second moments.
@@ -802,10 +812,7 @@ class LinkTracker:
         pivot = self.pivot()
         if pivot is None or self.radius is None:
             return slice(None), slice(None)
-        reach = 1.6 * self.radius
-        (left, top), (right, bottom) = (np.floor(pivot - reach).astype(int),
-                                        np.ceil(pivot + reach).astype(int))
-        return slice(max(top, 0), max(bottom, 0)), slice(max(left, 0), max(right, 0))
+        return reach_square(pivot, self.radius)
 
     def keypoints(self, angle: float) -> np.ndarray | None:
         """(2, 2) working pixels of the pivot and the link's tip, once both are known."""
