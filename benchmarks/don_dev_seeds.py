@@ -14,6 +14,9 @@ largest changes. A clip's error is heavy-tailed (a wrong pivot or a lost link co
 of degrees): a mean over 20 clips can move by a degree on one clip, so judge a change
 by the interval and the counts, on more seeds where they are close.
 
+80 seeds of the six default scenarios are 480 clips, about 28 GB: above the clip cache's
+default bound, so set ``IMIMIC_CACHE_MAX_GB`` (e.g. ``inf``) to keep them between runs.
+
     .venv/bin/python benchmarks/don_dev_seeds.py                       # defaults
     .venv/bin/python benchmarks/don_dev_seeds.py --param trust_threshold=0.3 \\
         --scenarios exp3-forearm-low exp3-forearm-high

@@ -65,6 +65,21 @@ def test_clip_writes_mp4_and_truth(tmp_path) -> None:
     assert (tmp_path / "chain-2-seed0.mp4").stat().st_size > 1000
 
 
+def test_cache_shows_and_clears_the_rendered_clips(tmp_path, monkeypatch, capsys) -> None:
+    monkeypatch.setenv("IMIMIC_CACHE_DIR", str(tmp_path / "clips"))
+    assert main(["clip", "--scenario", "exp2-servo", "--frames", "4", "--out",
+                 str(tmp_path / "out")]) == 0
+    capsys.readouterr()
+    assert main(["cache"]) == 0
+    assert f"{tmp_path / 'clips'}: 1 clips" in capsys.readouterr().out
+    assert main(["cache", "--clear"]) == 0
+    out = capsys.readouterr().out
+    assert "deleted 1 cached clips" in out and ": 0 clips, 0.00 GB" in out
+    monkeypatch.setenv("IMIMIC_CACHE_MAX_GB", "lots")
+    assert main(["cache"]) == 2
+    assert "IMIMIC_CACHE_MAX_GB" in capsys.readouterr().err
+
+
 def test_unknown_scenario_is_refused_with_the_choices(capsys) -> None:
     with pytest.raises(SystemExit):
         main(["demo", "--scenario", "exp9"])
@@ -74,7 +89,7 @@ def test_unknown_scenario_is_refused_with_the_choices(capsys) -> None:
 def test_help_explains_each_command() -> None:
     result = subprocess.run([sys.executable, "-m", "imimic_gym.cli", "--help"],
                             capture_output=True, text=True, check=True)
-    for command in ("demo", "clip", "bench", "scenarios"):
+    for command in ("demo", "clip", "bench", "scenarios", "cache"):
         assert command in result.stdout
 
 

@@ -6,16 +6,27 @@ One uncompressed ``.npz`` per spec, named by the spec's content hash, in
 reader never sees half a file, and parallel workers rendering the same clip do not clash.
 A file that cannot be read whole (truncated, flipped bytes: the zip CRC catches them), was
 written by another format version, or belongs to another spec is re-rendered.
+
+The cache is bounded: after each clip it writes, the clips least recently used (written or
+read) are deleted until the clips left take at most ``$IMIMIC_CACHE_MAX_GB`` (default
+`DEFAULT_MAX_GB`; ``inf`` for no bound). A 150-frame 240x320 clip with its depth is about
+58 MB, so the default keeps about 340 of them; a working set larger than the bound (the
+benchmarks' hundreds of development clips) is rendered again on every pass. Deleting a
+clip another process is reading is safe (POSIX keeps the open file), and one deleted
+between the check and the read is rendered again like a damaged one.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
+import math
 import os
 import tempfile
 import zipfile
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -23,9 +34,11 @@ from imimic_gym.clips.scenarios import ClipSpec
 from imimic_gym.clips.synthetic import render_clip
 from imimic_gym.clips.types import Clip, ClipTruth, depth_from_mm, depth_to_mm
 
-__all__ = ["cache_dir", "cache_path", "load_clip"]
+__all__ = ["CacheUsage", "cache_dir", "cache_limit_bytes", "cache_path", "cache_usage",
+           "clear_cache", "load_clip", "prune_cache"]
 
 FORMAT_VERSION = 2  # 2: depth stored as whole millimetres (uint16)
+DEFAULT_MAX_GB = 20.0
 log = logging.getLogger(__name__)
 
 
@@ -38,6 +51,72 @@ def cache_dir() -> Path:
 
 def cache_path(spec: ClipSpec) -> Path:
     return cache_dir() / f"{spec.key()}.npz"
+
+
+def cache_limit_bytes() -> float:
+    """The bound on the clips' total size, bytes, from ``$IMIMIC_CACHE_MAX_GB`` (GB of
+    10^9 bytes; ``inf`` for none), `DEFAULT_MAX_GB` if unset."""
+    raw = os.environ.get("IMIMIC_CACHE_MAX_GB", "").strip()
+    if not raw:
+        return DEFAULT_MAX_GB * 1e9
+    try:
+        gb = float(raw)
+    except ValueError:
+        gb = math.nan
+    if not gb > 0:  # also NaN
+        raise ValueError(f"IMIMIC_CACHE_MAX_GB must be a positive number of GB or 'inf', "
+                         f"got {raw!r}")
+    return gb * 1e9
+
+
+class CacheUsage(NamedTuple):
+    """What the clip cache holds: its folder, how many clips, their total bytes."""
+
+    directory: Path
+    clips: int
+    bytes: int
+
+
+def _clips() -> list[tuple[float, int, Path]]:
+    """(last use, size in bytes, path) of every cached clip, least recently used first."""
+    found = []
+    for path in cache_dir().glob("*.npz"):
+        try:
+            stat = path.stat()
+        except FileNotFoundError:  # deleted by another process meanwhile
+            continue
+        found.append((stat.st_mtime, stat.st_size, path))
+    return sorted(found)
+
+
+def cache_usage() -> CacheUsage:
+    clips = _clips()
+    return CacheUsage(cache_dir(), len(clips), sum(size for _, size, _ in clips))
+
+
+def prune_cache(limit_bytes: float, keep: Path | None = None) -> int:
+    """Delete the least recently used clips until the rest take at most ``limit_bytes``
+    (never ``keep``, the clip just written). Returns how many were deleted."""
+    clips = _clips()
+    total = sum(size for _, size, _ in clips)
+    deleted = 0
+    for _, size, path in clips:
+        if total <= limit_bytes:
+            break
+        if path == keep:
+            continue
+        path.unlink(missing_ok=True)
+        total -= size
+        deleted += 1
+    if deleted:
+        log.info("clip cache over %.1f GB: deleted the %d least recently used clips from %s",
+                 limit_bytes / 1e9, deleted, cache_dir())
+    return deleted
+
+
+def clear_cache() -> int:
+    """Delete every cached clip (the rendered dataset images are kept). Returns how many."""
+    return prune_cache(0.0)
 
 
 def _write(path: Path, clip: Clip) -> None:
@@ -91,14 +170,21 @@ def _read(path: Path, spec: ClipSpec) -> Clip:
 
 def load_clip(spec: ClipSpec, progress: bool = True, use_cache: bool = True) -> Clip:
     """The clip for ``spec``: from the cache if a sound copy is there, else rendered (and
-    cached). ``progress`` shows a progress bar while rendering."""
+    cached, then the cache pruned to its bound). ``progress`` shows a progress bar while
+    rendering."""
     path = cache_path(spec)
     if use_cache and path.exists():
         try:
-            return _read(path, spec)
+            clip = _read(path, spec)
         except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
             log.warning("cached clip %s is unusable (%s); rendering it again", path, err)
+        else:
+            with contextlib.suppress(OSError):  # a read-only cache is still read
+                os.utime(path)  # its last use, for pruning
+            return clip
+    limit = cache_limit_bytes() if use_cache else None  # a bad setting fails before rendering
     clip = render_clip(spec, progress=progress)
-    if use_cache:
+    if limit is not None:
         _write(path, clip)
+        prune_cache(limit, keep=path)
     return clip

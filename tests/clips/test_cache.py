@@ -1,3 +1,5 @@
+import os
+
 import numpy as np
 import pytest
 
@@ -56,3 +58,55 @@ def test_damaged_cache_file_is_rendered_again(damage: str, counted_renders: list
     assert "unusable" in caplog.text and str(path) in caplog.text
     assert np.array_equal(good.frames, again.frames)
     assert cache.load_clip(spec, progress=False) is not None and len(counted_renders) == 2
+
+
+def _cached(seeds: range) -> list:
+    """Load (render and cache) one tiny clip per seed, each used a second after the last."""
+    paths = []
+    for k, seed in enumerate(seeds):
+        spec = SPEC.replace(seed=seed)
+        cache.load_clip(spec, progress=False)
+        path = cache.cache_path(spec)
+        os.utime(path, (1000.0 + k, 1000.0 + k))  # file times, not a stopwatch: a fixed order
+        paths.append(path)
+    return paths
+
+
+def test_the_cache_keeps_the_most_recently_used_clips_within_its_bound(
+        monkeypatch: pytest.MonkeyPatch, tmp_path, counted_renders: list) -> None:
+    monkeypatch.setenv("IMIMIC_CACHE_DIR", str(tmp_path / "bounded"))
+    monkeypatch.setenv("IMIMIC_CACHE_MAX_GB", "inf")
+    first, second, third = _cached(range(40, 43))
+    size = first.stat().st_size
+    # Reading the first clip makes it the most recently used.
+    cache.load_clip(SPEC.replace(seed=40), progress=False)
+    assert len(counted_renders) == 3
+    # Room for three clips (they are the same size to within a few bytes): a fourth
+    # pushes out the least recently used, which is now the second.
+    monkeypatch.setenv("IMIMIC_CACHE_MAX_GB", str(3.5 * size / 1e9))
+    cache.load_clip(SPEC.replace(seed=43), progress=False)
+    assert [p.exists() for p in (first, second, third)] == [True, False, True]
+    assert cache.cache_usage().clips == 3
+    assert cache.cache_usage().bytes <= 3.5 * size
+    cache.load_clip(SPEC.replace(seed=41), progress=False)  # gone, so rendered again
+    assert len(counted_renders) == 5
+
+
+def test_a_bound_smaller_than_one_clip_still_keeps_the_clip_just_written(
+        monkeypatch: pytest.MonkeyPatch, tmp_path) -> None:
+    monkeypatch.setenv("IMIMIC_CACHE_DIR", str(tmp_path / "tiny"))
+    monkeypatch.setenv("IMIMIC_CACHE_MAX_GB", "1e-9")  # one byte
+    _cached(range(50, 52))
+    assert cache.cache_usage().clips == 1
+    assert cache.cache_path(SPEC.replace(seed=51)).exists()
+    assert cache.clear_cache() == 1 and cache.cache_usage().clips == 0
+
+
+@pytest.mark.parametrize("setting", ["0", "-3", "many", "nan"])
+def test_a_bad_cache_bound_is_refused_before_rendering(
+        monkeypatch: pytest.MonkeyPatch, tmp_path, counted_renders: list, setting: str) -> None:
+    monkeypatch.setenv("IMIMIC_CACHE_DIR", str(tmp_path / "bad"))
+    monkeypatch.setenv("IMIMIC_CACHE_MAX_GB", setting)
+    with pytest.raises(ValueError, match=f"IMIMIC_CACHE_MAX_GB.*{setting!r}"):
+        cache.load_clip(SPEC.replace(seed=60), progress=False)
+    assert counted_renders == []
