@@ -250,7 +250,15 @@ def render(load, table) -> str:
   on (`trust_threshold` 0.3) with the search on (`-high` -0.07, `-low` +0.17,
   `exp1-noisy-fast` +0.87); after the pivot, where no region is read, the guess
   `before_pivot` would make taken if within 20 degrees of the last direction (`-high`
-  +0.05, `-low` +0.17, `exp1-noisy-fast` -0.70, with 21-31 clips worse in each).
+  +0.05, `-low` +0.17, `exp1-noisy-fast` -0.70, with 21-31 clips worse in each); a
+  motion reading that finds the link again after 5 frames without one (the gates
+  dropped) refused where the appearance layer, its colour taught at least 2 (or 3, 5,
+  20; or with no such condition) times, sees no link colour within 12 degrees of it
+  (development clip 5 of `-high`: a red ball rising above the hidden forearm read as
+  the link, 78 degrees off for 9 frames; seeds 0-79 `-high` -0.39, `-low` +0.05,
+  `exp1-noisy-fast` -0.09; 80-159 `-high` -0.35 with 5 clips worse, one 9.3 -> 18.8,
+  `exp1-noisy-fast` +0.11 with 10 worse; with no condition a colour learned from
+  something else kept the link lost, `-none` clip 4 8.2 -> 26.4).
 
   Where the rest of the error is, on development clips 0-{sources['seeds'] - 1} (command:
   `.venv/bin/python benchmarks/don_error_sources.py --json

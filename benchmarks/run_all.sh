@@ -16,6 +16,9 @@ mkdir -p benchmarks/results
 "$BIN/imimic" eval --scenario exp2-servo default exp3-forearm-none exp3-forearm-low \
     exp3-forearm-high exp1-noisy-fast --estimator don \
     --episodes 10 --modality depth --json benchmarks/results/eval_depth.json
+# Fresh clips, more of them: is the held-out figure a property of seeds 1000-1009?
+"$BIN/imimic" eval --scenario exp3-forearm-none exp3-forearm-low exp3-forearm-high \
+    --estimator don --episodes 30 --first-seed 2000 --json benchmarks/results/eval_fresh.json
 "$BIN/python" benchmarks/don_known_pivot.py --json benchmarks/results/don_known_pivot.json
 "$BIN/python" benchmarks/don_error_sources.py --json benchmarks/results/don_error_sources.json
 # Real footage (issue 6): skipped with a message when ../shared/realdata is absent.
