@@ -295,8 +295,10 @@ class LinkedDON:
         self.torque_model = TorqueModel(robot) if robot is not None else None
         self.children = [[c for c, p in enumerate(self.parents) if p == i]
                          for i in range(self.n)]
-        # Any colour: the links of a chain often share one (see appearance.MAX_SHARE).
-        self.appearances = ([LinkAppearance(disagree=math.inf, max_share=None)
+        # Any colour: the links of a chain often share one (see appearance.MAX_SHARE);
+        # taught by vouched readings only, as it was chosen on its development clips.
+        self.appearances = ([LinkAppearance(disagree=math.inf, max_share=None,
+                                            first_trust=None)
                              for _ in range(self.n)] if appearance else None)
         self.reset()
 

@@ -57,6 +57,31 @@ def test_nothing_is_read_before_a_vouched_reading_teaches_the_colour() -> None:
     assert np.allclose(layer.colour[:3], SKIN, atol=25)
 
 
+def test_two_less_trusted_readings_that_agree_teach_the_colour() -> None:
+    """Readings with eta from FIRST_TRUST (below VOUCH_TRUST) propose a first colour: one
+    alone, or one of something else (a red bar), teaches nothing; a second of the same
+    colour does. Below FIRST_TRUST, or with ``first_trust=None`` (LinkedDON's), they do
+    not propose at all."""
+    red = (200, 30, 30)
+    frames = [(bar(wall(), math.radians(40), colour=red), 40, 0.6),
+              (bar(wall(), math.radians(44)), 44, 0.6),
+              (bar(wall(), math.radians(48)), 48, 0.4),
+              (bar(wall(), math.radians(52)), 52, 0.55)]
+    layer, vouched_only = LinkAppearance(), LinkAppearance(first_trust=None)
+    learned = []
+    for frame, angle, trust in frames:
+        for each in (layer, vouched_only):
+            assert each.update(frame, PIVOT, RADIUS, math.radians(angle), True, trust) is None
+        learned.append(layer.colour)
+    assert learned[:3] == [None, None, None]
+    assert np.allclose(learned[3][:3], SKIN, atol=25)
+    assert vouched_only.colour is None
+    # What the colour is for: once DON has lost the link, the layer finds it anywhere.
+    assert error_deg(layer.update(bar(wall(), math.radians(80)), PIVOT, RADIUS,
+                                  math.radians(52), False, 0.0, lost=True),
+                     math.radians(80)) < 0.6
+
+
 def test_a_ray_across_the_bare_wall_teaches_no_colour() -> None:
     """DON vouching for a wrong direction must not teach the layer the wall's colour."""
     layer = LinkAppearance()
