@@ -260,6 +260,33 @@ def render(load, table) -> str:
   `exp1-noisy-fast` +0.11 with 10 worse; with no condition a colour learned from
   something else kept the link lost, `-none` clip 4 8.2 -> 26.4).
 
+  Then the appearance layer's first colour from readings DON trusts less (chosen on
+  development clips 0-79, checked on 80-159). Behind the large board DON's eta seldom
+  reaches the 0.8 that vouches for a reading: on clips 0-79 of `-high` the colour came
+  15-80 frames after the pivot, and about a fifth of the squared error was in frames
+  where DON had no reading of the link and the layer no colour to look for it with. Now a
+  reading with eta from 0.5 proposes a colour, and two proposals that agree within
+  SIGMA are learned (`appearance.FIRST_TRUST`; eta 0.4 and 0.6, and three proposals,
+  were within 0.1 of it on `-high`). Settled RMSE, seeds 0-79 / 80-159:
+  `exp3-forearm-high` 8.72 -> 8.00 / 10.39 -> 9.43 (95% interval of the change -1.68
+  to -0.35), `exp3-forearm-low` 5.16 -> 4.77 / 5.59 -> 5.30 (one clip 5.1 -> 34.0, two
+  proposals of a grey), `exp3-forearm-none` 3.03 -> 2.81 / 2.67 -> 2.57,
+  `exp1-noisy-fast` 11.11 -> 11.22 / 9.14 -> 8.55, `exp2-servo` and `default` within
+  0.02. Held-out, measured once after: `-high` 13.73 -> 13.72 (two clips moved, by 0.3
+  and 0.2), `-low` 11.72 -> 11.33 (two clips better, 4.0 -> 1.4 and 3.6 -> 2.3),
+  `-none` 2.64 -> 2.76 (one clip 1.3 -> 2.6), `exp1-noisy-fast` 9.40 -> 8.47, `default`
+  1.44 -> 1.11; on the 30 fresh clips below, `-high` 11.63 -> 10.65 (10 clips better,
+  4 worse by at most 1.5), `-low` 5.64 -> 5.45, `-none` 3.14 -> 2.98. The prediction
+  layer on `-low`'s held-out occluded frames went from 16.6 (off) against 16.4 (on) to
+  16.1 against 16.3. On development clips 0-79 it changes those frames' RMSE by under
+  0.1 either way now (`-low` 8.43 off, 8.50 on; `-high` 13.84, 13.61), and none of the
+  braking rates tried (`COAST_DECAY` 0.6, 0.8, 0.9, 0.95) makes it help on `-low`. Tried
+  and not kept: a later vouched reading's colour replacing a proposed one where they
+  differ (kept the `-low` clip above right, but `-high` -0.43 / -0.72 instead of -0.72
+  / -0.96, `-none` -0.06 / -0.00); the colour check above on a motion reading that
+  finds a lost link again, now that colours come sooner (`-low` +0.98, one clip 15.5 ->
+  38.6: the colours proposed are less often right).
+
   Where the rest of the error is, on development clips 0-{sources['seeds'] - 1} (command:
   `.venv/bin/python benchmarks/don_error_sources.py --json
   benchmarks/results/don_error_sources.json`; share of the squared error by DON's state

@@ -293,8 +293,8 @@ Against issue 3's acceptance:
   issue asks it of `exp3-forearm-low`, where it is {verdict(ev('exp3-forearm-low', 'don', 'rmse_occluded_deg_prediction_on') < ev('exp3-forearm-low', 'don', 'rmse_occluded_deg_prediction_off'))}); it is off by default.
 - DON beats MOG2 and CamShift on `exp3-forearm-low`: {verdict(ev('exp3-forearm-low', 'don') < min(ev('exp3-forearm-low', 'mog2'), ev('exp3-forearm-low', 'camshift')))} ({ev('exp3-forearm-low', 'don'):.1f} against
   {ev('exp3-forearm-low', 'mog2'):.1f} and {ev('exp3-forearm-low', 'camshift'):.1f}). DON beats both on {beats_both('don')}; CamShift
-  beats both on {beats_both('camshift')}: it follows a colour, which works where the arm's skin stands out
-  and fails wherever the arm has no distinct hue (the paper link of `exp2-servo`).
+  beats both on {beats_both('camshift')}. CamShift follows a colour, which works where the arm's skin stands
+  out and fails wherever the arm has no distinct hue (the paper link of `exp2-servo`).
 - 2-link chain and `exp4-hand`: DON for several links, in its own section below.
 """]
     out.append(real_footage_section())

@@ -33,8 +33,8 @@ How.
   (`benchmarks/don_links_dev_seeds.py`).
 - Colour before a vouched reading. Behind a board, DON's eta seldom reaches VOUCH_TRUST:
   on development clips 0-79 of `exp3-forearm-high` the colour came 15-80 frames after
-  the pivot, and a fifth of the squared error was in frames where DON had lost the link
-  and this layer had no colour to look for it with. So a reading with eta from
+  the pivot, and a fifth of the squared error was in frames where DON had no reading of
+  the link and this layer no colour to look for it with. So a reading with eta from
   FIRST_TRUST proposes a first colour (the same median, the same MAX_SHARE test), and
   one that agrees (summed absolute RGB difference under SIGMA) with an earlier proposal
   is learned: the median of the agreeing ones. One frame's low-trust reading can be of
