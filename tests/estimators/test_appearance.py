@@ -48,6 +48,8 @@ def error_deg(angle: float | None, truth: float) -> float:
 
 
 def test_nothing_is_read_before_a_vouched_reading_teaches_the_colour() -> None:
+    """No reading, and one less trusted reading (a proposal, see the next test), teach
+    nothing; a vouched reading teaches the colour at once."""
     layer = LinkAppearance()
     frame = bar(wall(), math.radians(40))
     for read, trust in ((False, 1.0), (True, 0.5)):
