@@ -285,7 +285,10 @@ def render(load, table) -> str:
   differ (kept the `-low` clip above right, but `-high` -0.43 / -0.72 instead of -0.72
   / -0.96, `-none` -0.06 / -0.00); the colour check above on a motion reading that
   finds a lost link again, now that colours come sooner (`-low` +0.98, one clip 15.5 ->
-  38.6: the colours proposed are less often right).
+  38.6: the colours proposed are less often right); the slow link's reading leaving
+  out regions along an occluder's sliding or stopped side (development clip 139 of
+  `-high` locks onto the board's side that way, 29.8 -> 25.2; but 0-79 `-low` +0.22,
+  `-high` +0.14, one clip 10.6 -> 28.4).
 
   Where the rest of the error is, on development clips 0-{sources['seeds'] - 1} (command:
   `.venv/bin/python benchmarks/don_error_sources.py --json
