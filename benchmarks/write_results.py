@@ -314,7 +314,8 @@ def fresh_clips(fresh: list[dict], held_out) -> str:
     clips = sorted(row["rmse_deg_settled"] for row in high["rows"])
     median = (clips[(len(clips) - 1) // 2] + clips[len(clips) // 2]) / 2
     return f"""- Ten clips a scenario are few where one lost forearm costs a clip tens of degrees. On
-  {episodes} fresh clips (seeds {first}-{first + episodes - 1}, scored once; command: `.venv/bin/imimic eval
+  {episodes} fresh clips (seeds {first}-{first + episodes - 1}, never used to choose a rule; command:
+  `.venv/bin/imimic eval
   --scenario exp3-forearm-none exp3-forearm-low exp3-forearm-high --estimator don
   --episodes {episodes} --first-seed {first} --json benchmarks/results/eval_fresh.json`) DON's
   settled RMSE is {cells} degrees. On `exp3-forearm-high` the median clip is {median:.1f}
