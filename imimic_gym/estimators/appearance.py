@@ -60,6 +60,25 @@ How.
   without a reading, nowhere until DON vouches again, unless DON says it has lost the
   link (below): then everywhere. Only where the joint can turn. A best match under 0.25,
   or under 0.15 above the lower quartile's, is no reading.
+- A vouched jump. Where DON vouches for a reading more than 12 degrees (the vouched
+  search's reach) from where this layer's last reading and turn put the link now, the
+  layer searches its own track instead and learns nothing from the frame: DON has
+  jumped away from a link this layer still saw. That jump is most often a board's edge
+  read as the link while the forearm rests (development clip 68 of
+  `exp3-forearm-high`: from 23 to 77 degrees, held for 14 frames); the layer searched
+  only near a vouched reading, found nothing there, and the jump stood.
+  Settled RMSE on development clips, without -> with, seeds 0-79 (chosen among 6, 10,
+  15, 20, 25 and 30 degrees; 10 to 15 gave the same) / 80-159 (a check;
+  `benchmarks/don_dev_seeds.py --compare`): `exp3-forearm-low` 4.77 -> 4.37 deg / 5.30
+  -> 4.79 (95% interval of the change -1.17 to -0.13; 17 clips better, 1 worse),
+  `exp3-forearm-none` 2.81 -> 2.37 / 2.57 -> 2.41 (-0.28 to -0.07), `exp3-forearm-high`
+  8.00 -> 7.99 / 9.43 -> 9.39, `exp1-noisy-fast` 11.22 -> 11.18 / 8.55 -> 8.51,
+  `default` 0.94 -> 0.93 / 0.96 -> 0.93, `exp2-servo` unchanged. On clip 68 itself the
+  track search finds nothing (the board covers nearly half of the forearm by then), so
+  the jump still stands there. `LinkedDON`'s layers follow the rule too; its development
+  clips, settled RMSE per joint, without -> with (`benchmarks/don_links_dev_seeds.py`):
+  `chain-2` 2.14, 2.72 -> 2.21, 2.83 deg, `chain-3` 3.48, 8.46, 20.44 -> 3.06, 7.89,
+  20.35, `exp4-hand` 10.35, 22.86, 15.14 -> 10.34, 22.84, 15.20.
 - Everywhere once DON has lost the link (DON's ``search_when_lost``, on by default): a
   forearm that comes out from behind the board and rests stays lost to the motion
   layers until it moves (development clip 3 of `exp3-forearm-high`: held 16.6 degrees
@@ -196,6 +215,8 @@ class LinkAppearance:
         """`update` once the colour is known, without the relearning: ``vouched`` is
         DON's reading ``prior``."""
         px, py = float(pivot[0]), float(pivot[1])
+        if vouched and self._jumped(prior):
+            vouched = False  # search along this layer's track; learn nothing from the frame
         first, end = self._search(round(prior / STEP), vouched, directions, lost)
         if end <= first:
             self.last = None
@@ -226,6 +247,13 @@ class LinkAppearance:
         if vouched and abs(wrap_angle(angle - prior)) < AGREE:
             self._learn(patch, weight)
         return angle
+
+    def _jumped(self, prior: float) -> bool:
+        """Whether DON's reading ``prior`` (rad) lies farther from where this layer's last
+        reading and turn put the link now than the search about a vouched reading reaches
+        (NEAR): DON has jumped away from a link this layer saw in the last frame."""
+        return (self.last is not None
+                and abs(wrap_angle(prior - self.last - self.turn)) > NEAR * STEP)
 
     def _learn_first(self, image: np.ndarray, pivot: np.ndarray, radius: float,
                      prior: float, vouched: bool) -> None:

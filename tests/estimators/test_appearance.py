@@ -126,6 +126,7 @@ def test_the_bar_is_read_to_a_fraction_of_a_degree_from_a_rough_prior(
     layer.update(bar(wall(), math.radians(30)), PIVOT, RADIUS, math.radians(30), True, 1.0)
     for truth_deg in (33.0, 47.3, 61.9, 118.4):
         truth = math.radians(truth_deg)
+        layer.last = None  # each a view of its own: no track to jump from (see below)
         angle = layer.update(bar(wall(), truth), PIVOT, RADIUS,
                              truth + math.radians(prior_error_deg), True, 1.0)
         assert error_deg(angle, truth) < 0.6
@@ -138,6 +139,7 @@ def test_a_pivot_two_pixels_off_does_not_tilt_the_reading() -> None:
     layer.update(bar(wall(), math.radians(30)), wrong, RADIUS, math.radians(30), True, 1.0)
     for truth_deg in (40.0, 75.0, 130.0):
         truth = math.radians(truth_deg)
+        layer.last = None  # each a view of its own, as above
         angle = layer.update(bar(wall(), truth), wrong, RADIUS, truth, True, 1.0)
         assert error_deg(angle, truth) < 1.0
 
@@ -156,6 +158,32 @@ def test_where_don_vouches_for_a_direction_nothing_farther_off_is_read() -> None
                                          float(vouched))
     assert error_deg(readings[False], other) < 1.0
     assert readings[True] is None
+
+
+def test_a_vouched_jump_away_from_the_layers_track_is_searched_along_the_track() -> None:
+    """The layer read the bar at 30 degrees last frame; now the bar is at 32 and DON
+    vouches for 75 (a board's edge read as the link). The layer searches its own track
+    and reads the bar, where a search about DON's reading would find nothing; a vouched
+    reading within 12 degrees of the track is still searched about itself; and where the
+    track shows nothing, the layer reads nothing (DON's jump stands)."""
+    start, moved, jump = math.radians(30), math.radians(32), math.radians(75)
+
+    def layer_that_read_the_bar() -> LinkAppearance:
+        layer = LinkAppearance()
+        for _ in range(2):  # learn the colour, then read the bar
+            layer.update(bar(wall(), start), PIVOT, RADIUS, start, True, 1.0)
+        assert error_deg(layer.last, start) < 1.0
+        return layer
+
+    layer = layer_that_read_the_bar()
+    assert error_deg(layer.update(bar(wall(), moved), PIVOT, RADIUS, jump, True, 1.0),
+                     moved) < 1.0
+    near = math.radians(40)  # 10 degrees from the track: DON's reading is searched about
+    layer = layer_that_read_the_bar()
+    assert error_deg(layer.update(bar(wall(), near), PIVOT, RADIUS, near, True, 1.0),
+                     near) < 1.0
+    layer = layer_that_read_the_bar()
+    assert layer.update(bar(wall(), jump), PIVOT, RADIUS, jump, True, 1.0) is None
 
 
 def test_without_don_the_layer_follows_its_own_track_and_lets_go_of_a_lost_link() -> None:
