@@ -290,6 +290,39 @@ def render(load, table) -> str:
   `-high` locks onto the board's side that way, 29.8 -> 25.2; but 0-79 `-low` +0.22,
   `-high` +0.14, one clip 10.6 -> 28.4).
 
+  Then a vouched jump searched along the appearance layer's track (chosen on
+  development clips 0-79, checked on 80-159; `appearance.py`'s docstring). Where DON
+  vouched for a reading far from where the layer saw the link a frame earlier, the
+  layer searched only near that reading, found nothing, and the jump stood: on
+  development clip 68 of `-high` the board's edge, read at 77 degrees while the forearm
+  rested at 23, held for 14 frames. Now a vouched reading more than 12 degrees from
+  where the layer's last reading and turn put the link is searched along the layer's
+  track. Settled RMSE, seeds 0-79 / 80-159: `exp3-forearm-low` 4.77 -> 4.37 / 5.30 ->
+  4.79 (95% interval of the change -1.17 to -0.13), `exp3-forearm-none` 2.81 -> 2.37 /
+  2.57 -> 2.41 (-0.28 to -0.07), `exp3-forearm-high` 8.00 -> 7.99 / 9.43 -> 9.39,
+  `exp1-noisy-fast` 11.22 -> 11.18 / 8.55 -> 8.51, `default` 0.94 -> 0.93 / 0.96 ->
+  0.93, `exp2-servo` unchanged; `LinkedDON`'s development clips per joint `chain-2`
+  2.14, 2.72 -> 2.21, 2.83, `chain-3` 3.48, 8.46, 20.44 -> 3.06, 7.89, 20.35. Held-out,
+  measured once after: `-none` 2.76 -> 2.23 (three clips better, 2.6 -> 1.1, 4.3 ->
+  0.9, 1.5 -> 1.0), `-low` 11.33 -> 12.51 (one clip, already lost, 39.8 -> 51.6; the
+  rest unchanged), `-high` 13.72 -> 13.73, `exp1-noisy-fast` 8.47 -> 8.39; on the 30
+  fresh clips, `-none` 2.98 -> 2.58 (8 clips better, none worse), `-low` 5.45 -> 5.30,
+  `-high` 10.65 -> 10.60. Tried and not kept this round: the prediction layer acting
+  before the pivot too (a guess seen in part with eta under the threshold; before the
+  pivot are 90% of `-low`'s occluded-frame error on development clips 0-39), which moved
+  the occluded frames' RMSE with the layer on from 8.50 to 8.67 on 0-79 `-low` and
+  13.61 to 13.63 on `-high`; agreeing a pivot sooner (two solves within 6 px instead of
+  4: `-high` -0.01; a solve from 8 lines instead of 12: `-high` +0.02, `exp1-noisy-fast`
+  -0.15; crossings at 6 degrees instead of 10: `-none` -0.40, `exp1-noisy-fast` -0.89,
+  but `-high` +0.39, `-low` +0.16, 28 clips worse on `-high`; 12 crossing pairs instead
+  of 20: `-high` +0.62, `-low` +0.53; pairs of one followed edge counted from 4
+  degrees: within 0.07); before the pivot, a guess more than 10 degrees from the last
+  with eta under 0.5 refused for up to 5 frames (`-high` +0.31, `-low` +0.49) or 15
+  (+0.95, +1.11): it kept wrong guesses as often as it refused them; and, where the
+  track search after a vouched jump finds nothing, the layer's track held for that
+  frame (clip 68 16.1 -> 5.4, `-high` -0.13, but `exp1-noisy-fast` +0.10, one clip 5.0
+  -> 12.5: there the jump was the arm).
+
   Where the rest of the error is, on development clips 0-{sources['seeds'] - 1} (command:
   `.venv/bin/python benchmarks/don_error_sources.py --json
   benchmarks/results/don_error_sources.json`; share of the squared error by DON's state

@@ -19,7 +19,8 @@ At {stages['resolution']}, on this shared 2-core machine, the default DON / raw 
 measured {bench['ratio_mog2']:.2f} in the bench above and {stages['ratio_mog2_median']:.2f}
 (medians; {stages['ratio_mog2_min']:.2f} of minima) over {stages['repeats']} alternations of
 the stage script below; the paper's layers alone, {bench['ratio_mog2_paper']:.2f} in the
-bench (0.28 in the run before: it moves by a tenth between runs).
+bench (0.28 to 0.33 over the last three sessions' runs: it moves by a tenth between
+runs).
 
 Where DON's time goes at {stages['resolution']}. Command: `.venv/bin/python benchmarks/don_stages.py
 --json benchmarks/results/don_stages.json`. us per frame of each stage, its least disturbed total
