@@ -321,7 +321,17 @@ def render(load, table) -> str:
   (+0.95, +1.11): it kept wrong guesses as often as it refused them; and, where the
   track search after a vouched jump finds nothing, the layer's track held for that
   frame (clip 68 16.1 -> 5.4, `-high` -0.13, but `exp1-noisy-fast` +0.10, one clip 5.0
-  -> 12.5: there the jump was the arm).
+  -> 12.5: there the jump was the arm; the same with the hold only where the layer's
+  track turned under 1 or 2 degrees a frame); after the pivot, a reading more than 45
+  degrees from DON's angle taken only once a second within 5 frames agrees with it
+  (within 15, 40 or 60 degrees; development clips 5, 68 and 69 of `-high` jump to an
+  edge while the forearm is behind the board and hold it: `-high` -0.22 to -0.25, `-none`
+  -0.29, but `-low` +0.33 to +0.49 and `exp1-noisy-fast` +1.35 to +1.40, 24 clips worse:
+  a wrong held angle is left by such jumps, and refused ones kept it); and a colour
+  also learned anew after 5 frames running in which DON read the link with eta from
+  0.5 (or 0.3) and the layer read nothing (development clip 51 of `-low` keeps a red
+  ball's colour for the whole clip: `-low` +0.36, `-none` +0.11, `-high` +0.07,
+  `exp1-noisy-fast` -0.21).
 
   Where the rest of the error is, on development clips 0-{sources['seeds'] - 1} (command:
   `.venv/bin/python benchmarks/don_error_sources.py --json
