@@ -653,7 +653,16 @@ class LinkTracker:
         the pivot by more than ``reach_back`` px (an occluder's edge sweeping across the
         joint does), it is no farther
         than 1.6 link radii, it lies where the joint can turn (its range, if known, plus
-        20 degrees), and within 45 degrees of the last direction. The radius and direction
+        20 degrees) and so does its axis, and within 45 degrees of the last direction.
+        The axis test matters next to the pivot: a region centred a few pixels from it
+        passes the ray test whatever its axis (the test allows 4 px across), and pointed
+        outward from a centre just inside the range its axis can point anywhere. Without
+        it, development clip 45 of `exp3-forearm-none` read the forearm straight down, 180
+        degrees off, for three frames (settled RMSE 27.1 -> 3.9 deg with it). Settled RMSE
+        on development clips, without -> with, seeds 0-79 / 80-159
+        (`benchmarks/don_dev_seeds.py --compare`): `exp3-forearm-none` 2.37 -> 2.08 / 2.41
+        -> 2.41, `exp3-forearm-high` 7.99 -> 7.99 / 9.39 -> 9.08 (clip 85 27.4 -> 9.4),
+        the other scenarios within 0.01; no clip worse. The radius and direction
         gates are both dropped after 5 frames without a match, so neither a wrong lock nor
         a radius measured on a stray early region can last. The direction is the
         mean of those regions' axes weighted by length times area, pointed away from the
@@ -732,7 +741,12 @@ class LinkTracker:
             ox, oy = cx - px, cy - py
             if dx * ox + dy * oy < 0:
                 dx, dy = -dx, -dy
-            kept.append((index, float(np.arctan2(-dy, dx)), length * area, distance, length))
+            axis = float(np.arctan2(-dy, dx))
+            # The axis too where the link can point (see `measure`).
+            if self.directions is not None and not abs(
+                    wrap_angle(axis - self.directions[0])) < self.directions[1]:
+                continue
+            kept.append((index, axis, length * area, distance, length))
         return kept
 
     def before_pivot(self, lines: np.ndarray, mask: np.ndarray | None = None

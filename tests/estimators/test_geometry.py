@@ -227,6 +227,28 @@ def test_a_link_merged_with_a_sliding_edge_is_read_past_the_edge() -> None:
     assert merged >= 4
 
 
+def test_a_region_next_to_the_pivot_is_not_read_pointing_out_of_the_joint_range() -> None:
+    """A short upright sliver centred 3.5 px right of and 1 px below a known pivot: its
+    centre lies where a joint of range 0-120 degrees can point (bearing -16 degrees, in
+    the range plus margin), and that near the pivot it passes the ray test whatever its
+    axis. Pointed outward it points straight down, out of the range: it is not the link
+    (unchecked, DON read a forearm 180 degrees off). A sliver along a ray at 60 degrees
+    is read."""
+    pivot = np.array([50.0, 50.0])
+    tracker = LinkTracker(joint_range=(0.0, math.radians(120)), pivot=pivot, reach_back=2.0)
+    mask = np.zeros((100, 100), dtype=np.uint8)
+    mask[46:57, 53:55] = 255  # 11 x 2 px upright, centre (53.5, 51)
+    lines = component_lines(mask, min_area=4)
+    assert abs(math.degrees(math.atan2(-(lines[0, 1] - 50), lines[0, 0] - 50)) + 16) < 1
+    assert tracker.measure(lines, pivot, None) is None
+    along = np.zeros((100, 100), dtype=np.uint8)
+    direction = np.array([math.cos(math.radians(60)), -math.sin(math.radians(60))])
+    start, end = pivot + 8 * direction, pivot + 30 * direction
+    cv2.line(along, tuple(np.rint(start).astype(int)), tuple(np.rint(end).astype(int)), 255, 2)
+    reading = tracker.measure(component_lines(along, min_area=4), pivot, None)
+    assert reading is not None and abs(math.degrees(reading[0]) - 60) < 3
+
+
 def test_before_the_pivot_a_short_blob_is_no_guess() -> None:
     """Before a pivot: a short elongated blob (a bit of moving clutter, 10 px) gives no
     guess, so the last estimate stands; a sliver twice as long gives its axis."""
