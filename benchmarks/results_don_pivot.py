@@ -333,6 +333,20 @@ def render(load, table) -> str:
   ball's colour for the whole clip: `-low` +0.36, `-none` +0.11, `-high` +0.07,
   `exp1-noisy-fast` -0.21).
 
+  Then a region's axis kept where the joint can point (`LinkTracker.measure`; chosen on
+  development clips 0-79, checked on 80-159). The gate on where the joint can point
+  looked at a region's centre only; a short sliver a few pixels from the pivot passes
+  the ray test whatever its axis (it allows 4 px across), and its axis, pointed outward,
+  could point anywhere: development clip 45 of `-none` read the forearm straight down,
+  180 degrees off, for three frames, which was nearly all of that clip's 27.1 degrees.
+  Settled RMSE, seeds 0-79 / 80-159: `exp3-forearm-none` 2.37 -> 2.08 / 2.41 -> 2.41,
+  `exp3-forearm-high` 7.99 -> 7.99 / 9.39 -> 9.08 (clip 85 27.4 -> 9.4), the other
+  scenarios within 0.01, no clip worse. Held-out, measured once after: no DON figure
+  moved (the paper's layers alone on `-none` 6.04 -> 5.29; MOG2 on `exp1-noisy-fast`
+  19.73 -> 18.74, as the baselines share `measure`); on the 30 fresh clips `-low` 5.30
+  -> 4.53 (one clip 24.4 -> 1.3), `-high` 10.60 -> 10.47 (one clip 12.0 -> 8.1),
+  `-none` unchanged.
+
   Where the rest of the error is, on development clips 0-{sources['seeds'] - 1} (command:
   `.venv/bin/python benchmarks/don_error_sources.py --json
   benchmarks/results/don_error_sources.json`; share of the squared error by DON's state
