@@ -23,7 +23,7 @@ import mujoco
 import numpy as np
 
 from imimic_gym.estimators.frames import WorkingFrames
-from imimic_gym.estimators.geometry import LinkTracker
+from imimic_gym.estimators.geometry import LinkTracker, within_range
 from imimic_gym.estimators.motion import PathEstimator, TorqueModel
 from imimic_gym.estimators.types import Estimate
 from imimic_gym.metrics import wrap_angle
@@ -65,7 +65,8 @@ class _MaskEstimator:
 
     def _estimate(self, angle: float, omega: float, alpha: float,
                   trust: float = 1.0) -> Estimate:
-        angles = np.array([float(wrap_angle(angle - self.reference_direction))])
+        angles = np.array([within_range(float(wrap_angle(angle - self.reference_direction)),
+                                        self.joint_range)])
         omegas, alphas = np.array([omega]), np.array([alpha])
         torque = (self.torque_model(angles, omegas, alphas) if self.torque_model is not None
                   else np.zeros(1))

@@ -123,7 +123,7 @@ import numpy as np
 
 from imimic_gym.estimators.appearance import LinkAppearance
 from imimic_gym.estimators.frames import FrameShapeError, WorkingFrames
-from imimic_gym.estimators.geometry import LinkTracker, component_lines
+from imimic_gym.estimators.geometry import LinkTracker, component_lines, within_range
 from imimic_gym.estimators.motion import PathEstimator, TorqueModel
 from imimic_gym.estimators.types import Estimate
 from imimic_gym.metrics import wrap_angle
@@ -311,7 +311,8 @@ class DON:
         robot: a MuJoCo model of the robot, for torques; None gives zero torque.
         joint_range: the joint's (low, high) limits in rad, if known. Before the pivot is
             found, a moving region's axis gives the link's direction up to 180 degrees;
-            a range narrower than that says which way it points.
+            a range narrower than that says which way it points. A reported angle is
+            never past a limit (`geometry.within_range`).
         appearance: run the appearance layer (ours, `appearance.py`) after the paper's
             layers; False for the paper's layers alone.
         search_when_lost: where the motion layers have lost the link (it vanished while
@@ -437,7 +438,8 @@ class DON:
 
     def _estimate(self, angle: float, omega: float, alpha: float, trust: float,
                   predicted: bool) -> Estimate:
-        q = float(wrap_angle(angle - self.reference_direction))
+        q = within_range(float(wrap_angle(angle - self.reference_direction)), self.joint_range)
+        angle = q + self.reference_direction  # the keypoints' direction, within the range too
         angles, omegas, alphas = np.array([q]), np.array([omega]), np.array([alpha])
         torque = (self.torque_model(angles, omegas, alphas) if self.torque_model is not None
                   else np.zeros(1))

@@ -176,6 +176,21 @@ def test_a_region_where_the_joint_cannot_turn_is_not_the_link() -> None:
     assert max(errors[10:30]) < 3.0 and max(errors[-10:]) < 3.0
 
 
+def test_no_reported_angle_passes_the_joints_limits() -> None:
+    """A bar swings between 20 and 160 degrees, then down to 5; DON is told the joint
+    turns between 30 and 150 (a range narrower than the motion, as a user's guess of it
+    may be). It reads the bar past both limits (the pointing range has a margin), but
+    reports the limit there: nothing under 30 or over 150, and 30 at the end."""
+    angles = [*sweep(4.0, 40), *(math.radians(a) for a in range(20, 4, -3)), math.radians(5)]
+    frames = [bar_frame(a) for a in angles]
+    limits = (math.radians(30), math.radians(150))
+    estimates = DON(fps=FPS, joint_range=limits).run(frames)
+    reported = np.degrees([e.angles[0] for e in estimates])
+    assert reported.min() >= 30.0 - 1e-9 and reported.max() <= 150.0 + 1e-9
+    assert reported[-1] == pytest.approx(30.0)
+    assert abs(reported[25] - math.degrees(angles[25])) < 3.0  # inside the range: as read
+
+
 def test_motion_stopping_holds_the_last_angle() -> None:
     angles = sweep(3.0, 40, start_deg=40)
     frames = [bar_frame(a) for a in angles] + [bar_frame(angles[-1])] * 10

@@ -14,6 +14,7 @@ from imimic_gym.estimators.geometry import (
     LinkTracker,
     PivotEstimator,
     component_lines,
+    within_range,
 )
 
 
@@ -247,6 +248,19 @@ def test_a_region_next_to_the_pivot_is_not_read_pointing_out_of_the_joint_range(
     cv2.line(along, tuple(np.rint(start).astype(int)), tuple(np.rint(end).astype(int)), 255, 2)
     reading = tracker.measure(component_lines(along, min_area=4), pivot, None)
     assert reading is not None and abs(math.degrees(reading[0]) - 60) < 3
+
+
+def test_within_range_moves_an_angle_past_a_limit_to_the_nearer_limit() -> None:
+    rad = math.radians
+    assert within_range(rad(60), (0.0, rad(120))) == rad(60)
+    assert within_range(rad(-10), (0.0, rad(120))) == pytest.approx(0.0)
+    assert within_range(rad(130), (0.0, rad(120))) == pytest.approx(rad(120))
+    # Round the circle: -170 is 70 degrees past 120 and 170 before 0.
+    assert within_range(rad(-170), (0.0, rad(120))) == pytest.approx(rad(120))
+    # A range across +-180 degrees: -170 (190) is inside 100..260.
+    assert within_range(rad(-170), (rad(100), rad(260))) == rad(-170)
+    assert within_range(rad(-60), (rad(100), rad(260))) == pytest.approx(rad(-100))
+    assert within_range(1.0, None) == 1.0
 
 
 def test_before_the_pivot_a_short_blob_is_no_guess() -> None:
