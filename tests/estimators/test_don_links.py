@@ -76,6 +76,20 @@ def test_two_bars_give_both_angles_and_rates() -> None:
     assert lengths.tolist() == pytest.approx(LENGTHS, rel=0.25)
 
 
+def test_no_reported_angle_passes_a_joints_limits() -> None:
+    """The elbow closes past its 0 limit to -0.15 rad while the shoulder turns up: the
+    fit, which searches a margin past each range, reads it there, but the estimate
+    reports the limit."""
+    n = 40
+    t = np.arange(n)
+    q = np.stack([0.3 + 0.02 * t, np.maximum(1.3 - 0.04 * t, -0.15)], axis=1)
+    don = LinkedDON((-1, 0), RANGES, fps=FPS, pivot=PIVOT, appearance=False)
+    estimates = don.run(two_bars(angles) for angles in q)
+    elbow = np.array([e.angles[1] for e in estimates])
+    assert elbow.min() >= 0.0
+    assert elbow[-5:].tolist() == pytest.approx([0.0] * 5, abs=1e-12)
+
+
 def test_appearance_layer_reads_each_links_direction_without_its_length() -> None:
     # The fit's elbow sits where its (too long) forearm length puts it; the links' colour
     # lines give their directions whatever the lengths.
