@@ -347,6 +347,18 @@ def render(load, table) -> str:
   -> 4.53 (one clip 24.4 -> 1.3), `-high` 10.60 -> 10.47 (one clip 12.0 -> 8.1),
   `-none` unchanged.
 
+  Then no reported angle past the joint's limits (`geometry.within_range`, in DON, the
+  baselines and `LinkedDON`): the arm never passes them, and a reading past one (the
+  pointing range has a 20-degree margin; a guess before the pivot can lie 30 degrees
+  out) is reported at the nearer limit. It cannot make a clip worse where the truth
+  keeps within the limits. Settled RMSE, seeds 0-79 / 80-159: `exp3-forearm-high` 7.99
+  -> 7.95 / 9.08 -> 9.01, `exp1-noisy-fast` 11.18 -> 11.17 / 8.51 -> 8.46, the rest
+  within 0.01; `LinkedDON`'s development clips per joint `exp4-hand` 10.34, 22.84, 15.20
+  -> 10.20, 20.48, 13.82. Held-out, measured once after: `-low` 12.51 -> 12.02, `-high`
+  13.73 -> 13.37 (two clips 25.1 -> 22.6 and 16.5 -> 15.5), `exp4-hand` 15.14 -> 14.55;
+  on the fresh clips `-high` 10.47 -> 10.43. The prediction layer on `-low`'s held-out
+  occluded frames now reads 15.6 off against 15.7 on.
+
   Where the rest of the error is, on development clips 0-{sources['seeds'] - 1} (command:
   `.venv/bin/python benchmarks/don_error_sources.py --json
   benchmarks/results/don_error_sources.json`; share of the squared error by DON's state
