@@ -357,7 +357,12 @@ def render(load, table) -> str:
   -> 10.20, 20.48, 13.82. Held-out, measured once after: `-low` 12.51 -> 12.02, `-high`
   13.73 -> 13.37 (two clips 25.1 -> 22.6 and 16.5 -> 15.5), `exp4-hand` 15.14 -> 14.55;
   on the fresh clips `-high` 10.47 -> 10.43. The prediction layer on `-low`'s held-out
-  occluded frames now reads 15.6 off against 15.7 on.
+  occluded frames now reads 15.6 off against 15.7 on. Tried and not kept: a pivot
+  replaced by the second estimate's last solve (without its fan test) once readings
+  jumped more than 45 degrees 2 or 3 times within 30 frames (frames with a pivot over
+  10 input px from the elbow carry 20% of `-high`'s squared error on development clips
+  0-79 and 36% of `-low`'s): `-high` +0.11 / +0.12 (one clip 6.1 -> 15.0),
+  `exp1-noisy-fast` +0.31 / -0.16, `-low` within 0.01.
 
   Where the rest of the error is, on development clips 0-{sources['seeds'] - 1} (command:
   `.venv/bin/python benchmarks/don_error_sources.py --json
