@@ -71,7 +71,7 @@ def pointing_range(base: float, joint_range: tuple[float, float]) -> tuple[float
 
 
 def within_range(q: float, joint_range: tuple[float, float] | None) -> float:
-    """The joint angle ``q`` (rad, wrapped to (-pi, pi]) moved to the nearer (round the
+    """The joint angle ``q`` (rad, wrapped to [-pi, pi)) moved to the nearer (round the
     circle) of the joint's limits ``joint_range`` (low, high, rad) where it lies outside
     them; ``q`` itself inside them or without a range. An estimator reads directions
     with a margin past the range (`pointing_range`) and can hold a reading from before
