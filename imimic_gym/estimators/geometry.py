@@ -8,13 +8,13 @@ counter-clockwise with the image's y axis pointing up.
 
 from __future__ import annotations
 
-import functools
 import math
 from collections import deque
 
 import cv2
 import numpy as np
 
+from imimic_gym.estimators.compiled import pivot_solve, region_moments
 from imimic_gym.metrics import wrap_angle
 
 __all__ = ["LinkTracker", "PivotEstimator", "component_lines", "pointing_range", "within_range"]
@@ -121,25 +121,11 @@ def component_lines(mask: np.ndarray, min_area: int) -> np.ndarray:
     left, top = left & ~1, top & ~1
     crop = mask[top:bottom, left:right]
     count, labels = cv2.connectedComponents(crop, connectivity=8)
-    points = cv2.findNonZero(crop).reshape(-1, 2)  # x, y in row-major order
     # Raw moments per region: sums of x, y, x^2, y^2, xy over its pixels (exact: integers,
-    # in any order of summation).
-    x, y = points[:, 0] + float(left), points[:, 1] + float(top)
-    if count == 2:  # one region, most frames: every pixel is in it
-        if len(points) < max(min_area, 2):
-            return np.zeros((0, 7))
-        # Not x @ x: BLAS would start its threads on a large region, and they spin on.
-        moments = (x.sum(), y.sum(), (x * x).sum(), (y * y).sum(), (x * y).sum())
-        return np.array([_principal_axis(float(len(points)), *map(float, moments))])
-    label = labels.ravel().take(points[:, 1] * labels.shape[1] + points[:, 0])
-    area = np.bincount(label, minlength=count)
-    area[0] = 0  # the background
-    kept = np.flatnonzero(area >= max(min_area, 2))
-    if len(kept) == 0:
-        return np.zeros((0, 7))
-    sums = [np.bincount(label, w, count)[kept].tolist() for w in (x, y, x * x, y * y, x * y)]
-    return np.array([_principal_axis(float(area[i]), *moments)
-                     for i, *moments in zip(kept.tolist(), *sums, strict=True)])
+    # in any order of summation), in one compiled pass over the labels.
+    sums = region_moments(labels, count, float(left), float(top))
+    return np.array([_principal_axis(*row) for row in sums[1:].tolist()
+                     if row[0] >= max(min_area, 2)]).reshape(-1, 7)
 
 
 def _principal_axis(n: float, sx: float, sy: float, sxx: float, syy: float,
@@ -155,15 +141,6 @@ def _principal_axis(n: float, sx: float, sy: float, sxx: float, syy: float,
     theta = 0.5 * float(np.arctan2(2 * b, a - c))  # math.atan2 differs in the last bit
     return (cx, cy, math.cos(theta), math.sin(theta), math.sqrt(major),
             math.sqrt(major / minor), n)
-
-
-@functools.cache
-def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Indices (i, j), i < j, of every pair of n lines (read-only: shared by every solve,
-    which sees the same few n)."""
-    i, j = np.triu_indices(n, k=1)
-    i.flags.writeable = j.flags.writeable = False
-    return i, j
 
 
 class PivotEstimator:
@@ -262,71 +239,11 @@ class PivotEstimator:
     def _solve(self) -> np.ndarray | None:
         """The densest point of the intersections of line pairs that cross at more than
         10 degrees (mean shift from their densest block), if at least 20 such pairs
-        exist."""
-        lines = np.array(self.lines)
-        centre, direction, weight = lines[:, 0:2], lines[:, 2:4], lines[:, 4]
-        i, j = _pairs(len(lines))
-        dx, dy = lines[:, 2].copy(), lines[:, 3].copy()  # 1-d gathers are 3x cheaper
-        cross = dx[i] * dy[j] - dy[i] * dx[j]
-        good = np.abs(cross) > math.sin(math.radians(10))
-        if np.count_nonzero(good) < 20:
-            return None
-        i, j, cross = i[good], j[good], cross[good]
-        delta = centre[j] - centre[i]
-        # The crossing is at centre_i + along_i * direction_i = centre_j + along_j * ...
-        along_i = (delta[:, 0] * dy[j] - delta[:, 1] * dx[j]) / cross
-        if self.reach_back is not None:
-            # Both regions must start near the crossing, beyond it: the gap from the
-            # crossing to a region's near end is over -reach_back and under its length.
-            along_j = (delta[:, 0] * dy[i] - delta[:, 1] * dx[i]) / cross
-            ok = np.ones(len(i), dtype=bool)
-            for k, along in ((i, along_i), (j, along_j)):
-                gap = np.abs(along) - 1.7 * weight[k]
-                ok &= (gap > -self.reach_back) & (gap < 3.4 * weight[k] + 3.0)
-            if np.count_nonzero(ok) < 20:
-                return None
-            i, j, along_i = i[ok], j[ok], along_i[ok]
-        points = centre[i] + along_i[:, None] * direction[i]
-        weights = weight[i] * weight[j]
-        if self.directions is not None:
-            # Both regions must lie, seen from the crossing, where the link can point.
-            middle, half_width = self.directions
-            ok = np.ones(len(points), dtype=bool)
-            for k in (i, j):
-                offset = centre[k] - points
-                bearing = np.arctan2(-offset[:, 1], offset[:, 0])
-                ok &= np.abs(wrap_angle(bearing - middle)) < half_width
-            if np.count_nonzero(ok) < 20:
-                return None
-            points, weights = points[ok], weights[ok]
-        point = _densest(points)
-        for radius in (16.0, 8.0, 4.0, 4.0):  # shrinking mean shift toward the mode
-            near = np.hypot(*(points - point).T) < radius
-            if not near.any():
-                break
-            # np.average's arithmetic without its argument checks (a third of a solve)
-            near_weights = weights[near]
-            point = (points[near] * near_weights[:, None]).sum(axis=0) / near_weights.sum()
-        return point
-
-
-_NEIGHBOURS = np.array([(i << 21) + j for i in (-1, 0, 1) for j in (-1, 0, 1)], dtype=np.int64)
-
-
-def _densest(points: np.ndarray, cell: float = 3.0) -> np.ndarray:
-    """The centre of the 3x3-cell block (cells of ``cell`` px) holding the most of
-    ``points`` (n, 2): where a mean shift should start. Not the median, which a crowd of
-    stray crossings drags away from a tight cluster of true ones; and by count, not by
-    length: an occluder's long edges would outweigh the link's short slivers."""
-    cells = np.floor(points / cell).astype(np.int64)
-    # One integer per cell (rows and columns well inside +-2^20 cells), so that the
-    # grouping sorts plain integers, not rows.
-    keys = (cells[:, 0] << 21) + cells[:, 1]
-    voted = (keys[:, None] + _NEIGHBOURS[None, :]).ravel()
-    unique, inverse = np.unique(voted, return_inverse=True)
-    best = int(unique[int(np.argmax(np.bincount(inverse)))])
-    column = (best + (1 << 20)) >> 21
-    return (np.array([column, best - (column << 21)]) + 0.5) * cell
+        exist (`compiled.pivot_solve`)."""
+        reach_back = math.nan if self.reach_back is None else self.reach_back
+        middle, half_width = (0.0, math.nan) if self.directions is None else self.directions
+        found, x, y = pivot_solve(np.array(self.lines), reach_back, middle, half_width, 20)
+        return np.array([x, y]) if found else None
 
 
 def _follow(line: np.ndarray, previous: np.ndarray) -> tuple[int | None, float]:

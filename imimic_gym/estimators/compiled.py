@@ -1,0 +1,206 @@
+"""The per-frame inner loops of the geometry layers, compiled with numba.
+
+DON spends most of a frame at 240x320 not in OpenCV but in the interpreter, issuing a few
+hundred numpy and OpenCV calls on arrays of a few hundred elements, where each call's fixed
+cost is most of its time (benchmarks/RESULTS.md, "Where DON's time goes"). The loops here
+replace such runs of calls with one compiled call each. They compute exactly what the
+numpy code they replace computed: the same operations on the same float64 values in the
+same order (numpy's pairwise summation included), so every estimate is bit-identical
+(`benchmarks/don_same_estimates.py`).
+
+Compiled on first use and cached on disk beside this file (numba's ``cache=True``; a
+read-only install falls back to numba's user cache), so only the first process pays the
+few seconds of compilation.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+__all__ = ["pairwise_sum", "pivot_solve", "region_moments"]
+
+_SIN_10_DEG = math.sin(math.radians(10))
+
+
+@njit(cache=True)
+def _block_sum(values: np.ndarray, first: int, n: int) -> float:
+    """numpy's sum of a block of at most 128 values: sequential under 8, else eight
+    running sums combined pairwise, then the remainder."""
+    if n < 8:
+        total = 0.0
+        for k in range(first, first + n):
+            total += values[k]
+        return total
+    r = values[first:first + 8].copy()
+    end = first + n - n % 8
+    for k in range(first + 8, end, 8):
+        for m in range(8):
+            r[m] += values[k + m]
+    total = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+    for k in range(end, first + n):
+        total += values[k]
+    return total
+
+
+@njit(cache=True)
+def pairwise_sum(values: np.ndarray, n: int) -> float:
+    """Sum of ``values[:n]`` (float64) in numpy's order for a contiguous 1-d sum: blocks
+    of at most 128 (`_block_sum`), halved (at a multiple of 8) until they are, and the
+    halves' sums added, so that the result is numpy's to the last bit. The halving runs
+    on an explicit stack: numba cannot cache a recursive function."""
+    firsts = np.empty(64, dtype=np.int64)
+    sizes = np.empty(64, dtype=np.int64)
+    split = np.zeros(64, dtype=np.bool_)
+    sums = np.empty(64)
+    firsts[0], sizes[0], top, done = 0, n, 1, 0
+    while top > 0:
+        first, size = firsts[top - 1], sizes[top - 1]
+        if size <= 128:
+            sums[done] = _block_sum(values, first, size)
+            done += 1
+            top -= 1
+        elif not split[top - 1]:
+            split[top - 1] = True
+            half = size // 2
+            half -= half % 8
+            # The second half below the first, so the first is summed first.
+            firsts[top], sizes[top], split[top] = first + half, size - half, False
+            firsts[top + 1], sizes[top + 1], split[top + 1] = first, half, False
+            top += 2
+        else:
+            sums[done - 2] = sums[done - 2] + sums[done - 1]
+            done -= 1
+            top -= 1
+    return sums[0]
+
+
+@njit(cache=True)
+def region_moments(labels: np.ndarray, count: int, left: float, top: float) -> np.ndarray:
+    """Pixel count and raw moments of every label of ``labels`` ((h, w) int32, 0 the
+    background, as `cv2.connectedComponents` numbers them), with (``left``, ``top``) added
+    to the pixels' x and y: (count, 6) float64 rows n, sum x, sum y, sum x^2, sum y^2,
+    sum xy. Integer-valued sums, exact in float64 for any image (under 2^53), so their
+    order does not matter."""
+    sums = np.zeros((count, 6))
+    rows, cols = labels.shape
+    for r in range(rows):
+        y = r + top
+        for c in range(cols):
+            label = labels[r, c]
+            if label == 0:
+                continue
+            x = c + left
+            row = sums[label]
+            row[0] += 1.0
+            row[1] += x
+            row[2] += y
+            row[3] += x * x
+            row[4] += y * y
+            row[5] += x * y
+    return sums
+
+
+@njit(cache=True)
+def _wrap(angle: float) -> float:
+    return (angle + math.pi) % (2 * math.pi) - math.pi
+
+
+@njit(cache=True)
+def _densest(xs: np.ndarray, ys: np.ndarray, cell: float) -> tuple[float, float]:
+    """`geometry.PivotEstimator`'s start of the mean shift: the centre of the 3x3 block
+    of ``cell`` px cells holding the most points; among equal counts the block with the
+    smallest key (column << 21 + row), as numpy's unique-then-argmax picks."""
+    n = len(xs)
+    voted = np.empty(9 * n, dtype=np.int64)
+    for k in range(n):
+        key = (np.int64(math.floor(xs[k] / cell)) << 21) + np.int64(math.floor(ys[k] / cell))
+        m = 0
+        for di in (-1, 0, 1):
+            for dj in (-1, 0, 1):
+                voted[9 * k + m] = key + (np.int64(di) << 21) + dj
+                m += 1
+    voted.sort()
+    best, best_count, run = voted[0], 0, 0
+    for k in range(len(voted)):
+        run = run + 1 if k > 0 and voted[k] == voted[k - 1] else 1
+        if run > best_count:
+            best, best_count = voted[k], run
+    column = (best + (1 << 20)) >> 21
+    return (column + 0.5) * cell, (best - (column << 21) + 0.5) * cell
+
+
+@njit(cache=True)
+def pivot_solve(lines: np.ndarray, reach_back: float, middle: float, half_width: float,
+                min_pairs: int) -> tuple[bool, float, float]:
+    """`geometry.PivotEstimator._solve` on ``lines`` ((n, 7) `component_lines` rows):
+    (found, x, y). ``reach_back`` NaN: no reach test; ``half_width`` NaN: no direction
+    test. The pairs run in ``np.triu_indices`` order, as the numpy version's did."""
+    n = len(lines)
+    total = n * (n - 1) // 2
+    pi_ = np.empty(total, dtype=np.int64)
+    pj = np.empty(total, dtype=np.int64)
+    cross = np.empty(total)
+    kept = 0
+    for i in range(n):
+        for j in range(i + 1, n):
+            c = lines[i, 2] * lines[j, 3] - lines[i, 3] * lines[j, 2]
+            if abs(c) > _SIN_10_DEG:
+                pi_[kept], pj[kept], cross[kept] = i, j, c
+                kept += 1
+    if kept < min_pairs:
+        return False, 0.0, 0.0
+    xs = np.empty(kept)
+    ys = np.empty(kept)
+    weights = np.empty(kept)
+    found = 0
+    check_reach = not math.isnan(reach_back)
+    check_directions = not math.isnan(half_width)
+    reached = 0
+    for k in range(kept):
+        i, j, c = pi_[k], pj[k], cross[k]
+        dx, dy = lines[j, 0] - lines[i, 0], lines[j, 1] - lines[i, 1]
+        along_i = (dx * lines[j, 3] - dy * lines[j, 2]) / c
+        if check_reach:
+            along_j = (dx * lines[i, 3] - dy * lines[i, 2]) / c
+            ok = True
+            for line, along in ((i, along_i), (j, along_j)):
+                gap = abs(along) - 1.7 * lines[line, 4]
+                ok = ok and gap > -reach_back and gap < 3.4 * lines[line, 4] + 3.0
+            if not ok:
+                continue
+        reached += 1
+        x = lines[i, 0] + along_i * lines[i, 2]
+        y = lines[i, 1] + along_i * lines[i, 3]
+        if check_directions:
+            ok = True
+            for line in (i, j):
+                bearing = math.atan2(-(lines[line, 1] - y), lines[line, 0] - x)
+                ok = ok and abs(_wrap(bearing - middle)) < half_width
+            if not ok:
+                continue
+        xs[found], ys[found], weights[found] = x, y, lines[i, 4] * lines[j, 4]
+        found += 1
+    if reached < min_pairs or found < min_pairs:
+        return False, 0.0, 0.0
+    xs, ys, weights = xs[:found], ys[:found], weights[:found]
+    px, py = _densest(xs, ys, 3.0)
+    near = np.empty(found)
+    for radius in (16.0, 8.0, 4.0, 4.0):  # shrinking mean shift toward the mode
+        count = 0
+        sx = sy = 0.0
+        for k in range(found):
+            if math.hypot(xs[k] - px, ys[k] - py) < radius:
+                # numpy summed the (k, 2) products row after row (axis 0) ...
+                sx += xs[k] * weights[k]
+                sy += ys[k] * weights[k]
+                near[count] = weights[k]
+                count += 1
+        if count == 0:
+            break
+        # ... and the weights pairwise (a contiguous 1-d sum)
+        total_weight = pairwise_sum(near, count)
+        px, py = sx / total_weight, sy / total_weight
+    return True, px, py
