@@ -104,6 +104,7 @@ from collections import deque
 import cv2
 import numpy as np
 
+from imimic_gym.estimators.compiled import best_ray, colour_match
 from imimic_gym.estimators.geometry import reach_square
 from imimic_gym.metrics import wrap_angle
 
@@ -133,12 +134,18 @@ CORRIDOR_PX, CORRIDOR_STEP = 4.0, 0.5  # the line fit's half-width and sample sp
 # Match (0-255) per summed absolute difference (0-255, saturated); under 0.1 is none.
 _MATCH = 255 * np.exp(-(np.arange(256) / SIGMA) ** 2)
 _MATCH = np.where(_MATCH < 25.5, 0, np.round(_MATCH)).astype(np.uint8)
-_SUM = np.ones((1, 3))  # cv2.transform: the sum of the channels
 
 
 def _match(colours: np.ndarray, colour: tuple[float, ...]) -> np.ndarray:
     """Per-pixel match (0-255 uint8, (h, w)) of (h, w, 3) uint8 colours with ``colour``."""
-    return cv2.LUT(cv2.transform(cv2.absdiff(colours, colour), _SUM), _MATCH)
+    return colour_match(colours, _rounded(colour), _MATCH)
+
+
+def _rounded(colour: tuple[float, ...]) -> tuple[int, int, int]:
+    """``colour``'s RGB as the integers a match compares with: rounded half to even
+    (Python's round, as OpenCV rounds a scalar against uint8 pixels)."""
+    r, g, b = (round(c) for c in colour[:3])
+    return r, g, b
 
 
 class LinkAppearance:
@@ -225,19 +232,15 @@ class LinkAppearance:
         # run twice round the circle so that no search wraps.
         map1, map2 = self._ray_maps(px, py, radius)
         rows = slice(len(OFFSETS) * (first % TURN), len(OFFSETS) * (first % TURN + end - first))
-        pixels = _match(cv2.remap(image, map1[rows], map2[rows], cv2.INTER_LINEAR), self.colour)
-        rays = cv2.reduce(pixels, 1, cv2.REDUCE_AVG, dtype=cv2.CV_32F).reshape(-1, len(OFFSETS))
-        match = rays.max(axis=1)
-        best = int(np.argmax(match))
-        # The background's match: the lower quartile of the rays (a link near the pivot
+        # The background's match is the rays' lower quartile (a link near the pivot
         # crosses several neighbouring rays).
-        quartile = len(match) // 4
-        if match[best] < 255 * MIN_MATCH or (
-                match[best] - float(np.partition(match, quartile)[quartile])
-                < 255 * MIN_CONTRAST):
+        best, side = best_ray(cv2.remap(image, map1[rows], map2[rows], cv2.INTER_LINEAR),
+                              _rounded(self.colour), _MATCH, len(OFFSETS), 255 * MIN_MATCH,
+                              255 * MIN_CONTRAST)
+        if best < 0:
             self.last = None
             return None
-        angle, offset = (first + best) * STEP, float(OFFSETS[int(np.argmax(rays[best]))])
+        angle, offset = (first + best) * STEP, float(OFFSETS[side])
         angle, patch, weight = self._fit_line(image, px, py, radius, angle, offset)
         if directions is not None and abs(wrap_angle(angle - directions[0])) > directions[1]:
             self.last = None  # the fit left where the link can point: not the link

@@ -20,7 +20,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["pairwise_sum", "pivot_solve", "region_moments"]
+__all__ = ["best_ray", "colour_match", "pairwise_sum", "pivot_solve", "region_moments"]
 
 _SIN_10_DEG = math.sin(math.radians(10))
 
@@ -204,3 +204,59 @@ def pivot_solve(lines: np.ndarray, reach_back: float, middle: float, half_width:
         total_weight = pairwise_sum(near, count)
         px, py = sx / total_weight, sy / total_weight
     return True, px, py
+
+
+@njit(cache=True)
+def colour_match(pixels: np.ndarray, colour: tuple[int, int, int],
+                 table: np.ndarray) -> np.ndarray:
+    """Per-pixel match (0-255 uint8, (h, w)) of ``pixels`` ((h, w, 3) uint8) with
+    ``colour`` (RGB, already rounded to integers as OpenCV rounds a scalar): ``table``
+    indexed by the summed absolute difference, each channel's and the sum saturated at
+    255. What
+    ``cv2.LUT(cv2.transform(cv2.absdiff(pixels, colour), ones((1, 3))), table)`` gives,
+    in one pass instead of three."""
+    rows, cols = pixels.shape[0], pixels.shape[1]
+    out = np.empty((rows, cols), dtype=np.uint8)
+    r, g, b = colour
+    for i in range(rows):
+        for j in range(cols):
+            total = (min(abs(np.int64(pixels[i, j, 0]) - r), 255)
+                     + min(abs(np.int64(pixels[i, j, 1]) - g), 255)
+                     + min(abs(np.int64(pixels[i, j, 2]) - b), 255))
+            out[i, j] = table[min(total, 255)]
+    return out
+
+
+@njit(cache=True)
+def best_ray(samples: np.ndarray, colour: tuple[int, int, int], table: np.ndarray,
+             offsets: int, min_match: float, min_contrast: float) -> tuple[int, int]:
+    """`appearance.LinkAppearance`'s choice among rays: ``samples`` ((rays * offsets,
+    points, 3) uint8, row ``offsets * k + j`` ray k shifted sideways by its j-th offset)
+    are matched with ``colour`` (`colour_match`); a row's score is its mean match (float32,
+    as ``cv2.reduce(..., cv2.REDUCE_AVG, dtype=cv2.CV_32F)`` computes it), a ray's the
+    best of its rows. Returns (ray, offset) of the best score (the first on a tie), or
+    (-1, -1) where it is under ``min_match`` or beats the rays' lower quartile by less
+    than ``min_contrast`` (both 0-255; the comparison in float32, as numpy did it)."""
+    rows, points = samples.shape[0], samples.shape[1]
+    match = colour_match(samples, colour, table)
+    scale = np.float32(1.0 / points)
+    n = rows // offsets
+    scores = np.empty(n, dtype=np.float32)
+    sides = np.empty(n, dtype=np.int64)
+    for k in range(n):
+        for j in range(offsets):
+            total = 0
+            for p in range(points):
+                total += np.int64(match[offsets * k + j, p])
+            mean = np.float32(total) * scale
+            if j == 0 or mean > scores[k]:
+                scores[k], sides[k] = mean, j
+    best = 0
+    for k in range(1, n):
+        if scores[k] > scores[best]:
+            best = k
+    quartile = np.sort(scores)[n // 4]
+    if (scores[best] < np.float32(min_match)
+            or np.float32(scores[best] - quartile) < np.float32(min_contrast)):
+        return -1, -1
+    return best, sides[best]
