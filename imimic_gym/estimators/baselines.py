@@ -90,11 +90,11 @@ class _MaskEstimator:
             # Nothing along the link: it holds, at rest, as in DON (the path estimator
             # hears v = 0, so the next movement's omega does not start from this one's).
             if self.angle is not None:
-                self.path.update(np.array([self.angle]))
+                self.path.update((self.angle,))
                 self.estimate = self._estimate(self.angle, 0.0, 0.0)
             return self.estimate
         self.angle = measured[0]
-        self.path.update(np.array([self.angle]))
+        self.path.update((self.angle,))
         self.estimate = self._estimate(self.angle, float(self.path.omega()[0]),
                                        float(self.path.alpha()[0]))
         return self.estimate

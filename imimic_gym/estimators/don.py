@@ -456,7 +456,7 @@ class DON:
         None (keep the last estimate) before there is a location to hold."""
         if self.angle is None:
             return None
-        self.path.update(np.array([self.angle]))
+        self.path.update((self.angle,))
         return Reading(self.angle, 0.0, 0.0, trust, predicted=False)
 
     def _was_turning_fast(self) -> bool:
@@ -499,7 +499,7 @@ class DON:
     def _predicted(self, trust: float) -> Reading:
         """The reading from the prediction layer for this frame (`_predict`)."""
         self.angle = self._predict()
-        self.path.update(np.array([self.angle]))
+        self.path.update((self.angle,))
         omega = self.coast * self.fps
         return Reading(self.angle, omega, -(1 - COAST_DECAY) * omega * self.fps, trust,
                        predicted=True)
@@ -527,7 +527,7 @@ class DON:
         if self.guess is not None and abs(wrap_angle(guess - self.guess)) > GUESS_JUMP:
             self.path.reset()
         self.guess = guess
-        self.path.update(np.array([guess]))
+        self.path.update((guess,))
         return Reading(guess, float(self.path.omega()[0]), float(self.path.alpha()[0]),
                        self.trust_factor(), predicted=False)
 
@@ -555,7 +555,7 @@ class DON:
             directions=self.link.directions, lost=self.search_when_lost and self.hidden)
         if angle is None:
             return reading
-        self.path.correct(np.array([angle]))
+        self.path.correct((angle,))
         self.angle = angle
         return Reading(angle, float(self.path.omega()[0]), float(self.path.alpha()[0]),
                        reading.trust, predicted=False)
@@ -607,7 +607,7 @@ class DON:
         # no velocity, so the path starts afresh from here.
         if self.angle is None or abs(wrap_angle(location - self.angle)) > MAX_TURN:
             self.path.reset()
-        self.path.update(np.array([location]))
+        self.path.update((location,))
         self.angle = location
         self.predicting_for = 0
         omega, alpha = float(self.path.omega()[0]), float(self.path.alpha()[0])

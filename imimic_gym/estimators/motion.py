@@ -7,6 +7,7 @@ velocity and acceleration, and those into the torque the robot needs.
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Sequence
 
 import mujoco
 import numpy as np
@@ -26,7 +27,10 @@ class PathEstimator:
     quantity without the small-angle error. Per frame, times fps (fps^2) gives rad/s
     (rad/s^2).
 
-    Keeps the last ``window`` samples of V and A (the sets the prediction layer merges).
+    Keeps the last ``window`` samples of V and A (the sets the prediction layer merges),
+    each a tuple of n floats. Python floats, not numpy arrays: this runs every frame on one
+    to three angles, where numpy's cost per call is ten times the arithmetic; the
+    arithmetic is the same (`wrap_angle` of a float is the array's to the bit).
     """
 
     def __init__(self, n_joints: int, fps: float, window: int = 10) -> None:
@@ -34,49 +38,59 @@ class PathEstimator:
         self.reset()
 
     def reset(self) -> None:
-        self.location: np.ndarray | None = None
-        self.V: deque[np.ndarray] = deque(maxlen=self.window)
-        self.A: deque[np.ndarray] = deque(maxlen=self.window)
+        self.location: tuple[float, ...] | None = None
+        self.V: deque[tuple[float, ...]] = deque(maxlen=self.window)
+        self.A: deque[tuple[float, ...]] = deque(maxlen=self.window)
 
-    def update(self, location: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Add this frame's location (n,) rad; return (v, a) per frame, rad/frame(^2)."""
-        v = np.zeros(self.n) if self.location is None else wrap_angle(location - self.location)
-        a = v - self.V[-1] if self.V else np.zeros(self.n)
-        self.location = np.asarray(location, dtype=np.float64).copy()
+    def update(self, location: Sequence[float] | np.ndarray
+               ) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """Add this frame's location (n angles, rad); return (v, a) per frame,
+        rad/frame(^2), n each."""
+        location = tuple(float(x) for x in location)
+        if self.location is None:
+            v = (0.0,) * self.n
+        else:
+            v = tuple(wrap_angle(x - last) for x, last in zip(location, self.location,
+                                                                strict=True))
+        a = (tuple(x - last for x, last in zip(v, self.V[-1], strict=True)) if self.V
+             else (0.0,) * self.n)
+        self.location = location
         self.V.append(v)
         self.A.append(a)
         return v, a
 
-    def correct(self, location: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Replace the newest location with a better reading of the same frame (n,) rad;
-        its v and a follow. Returns them, as `update` does."""
+    def correct(self, location: Sequence[float] | np.ndarray
+                ) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """Replace the newest location with a better reading of the same frame (n angles,
+        rad); its v and a follow. Returns them, as `update` does."""
         if self.location is None:
             return self.update(location)
         newest = self.V.pop()
         self.A.pop()
         # The location before the newest, if the newest was not the first after a reset.
-        self.location = self.location - newest if self.V else None
+        self.location = (tuple(x - v for x, v in zip(self.location, newest, strict=True))
+                         if self.V else None)
         return self.update(location)
 
     def omega(self) -> np.ndarray:
-        """Angular velocity, rad/s: the mean of the last two v, centred on the frame."""
-        return _mean_of_last(self.V, 2, self.n) * self.fps
+        """Angular velocity (n,), rad/s: the mean of the last two v, centred on the frame."""
+        return np.array(_mean_of_last(self.V, 2, self.n)) * self.fps
 
     def alpha(self) -> np.ndarray:
-        """Angular acceleration, rad/s^2: the mean of the last three a."""
-        return _mean_of_last(self.A, 3, self.n) * self.fps**2
+        """Angular acceleration (n,), rad/s^2: the mean of the last three a."""
+        return np.array(_mean_of_last(self.A, 3, self.n)) * self.fps**2
 
 
-def _mean_of_last(values: deque[np.ndarray], k: int, n: int) -> np.ndarray:
-    """Mean of the last ``k`` (n,) arrays of ``values``; zeros if there are none. Summed
-    by hand: this runs every frame, and numpy's mean over a list costs ten times more."""
+def _mean_of_last(values: deque[tuple[float, ...]], k: int, n: int) -> list[float]:
+    """Mean of the last ``k`` n-tuples of ``values`` (newest first in the sum, as before);
+    zeros if there are none."""
     k = min(k, len(values))
     if k == 0:
-        return np.zeros(n)
-    total = values[-1]
+        return [0.0] * n
+    total = list(values[-1])
     for i in range(2, k + 1):
-        total = total + values[-i]
-    return total / k
+        total = [t + x for t, x in zip(total, values[-i], strict=True)]
+    return [t / k for t in total]
 
 
 class TorqueModel:
