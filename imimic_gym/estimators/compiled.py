@@ -20,7 +20,8 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["best_ray", "colour_match", "pairwise_sum", "pivot_solve", "region_moments"]
+__all__ = ["GREY_OF_CHANNELS", "best_ray", "colour_match", "keep_window_changes", "pairwise_sum",
+           "pivot_solve", "region_moments"]
 
 _SIN_10_DEG = math.sin(math.radians(10))
 
@@ -260,3 +261,37 @@ def best_ray(samples: np.ndarray, colour: tuple[int, int, int], table: np.ndarra
             or np.float32(scores[best] - quartile) < np.float32(min_contrast)):
         return -1, -1
     return best, sides[best]
+
+
+# cv2.cvtColor(RGB -> grey) of a pixel whose channels are 0 or 255, by which of them are
+# 255 (bit 0 red, 1 green, 2 blue): OpenCV's fixed-point weights 4899, 9617, 1868 / 2^14.
+GREY_OF_CHANNELS = np.array([(255 * (4899 * (k & 1) + 9617 * (k >> 1 & 1) + 1868 * (k >> 2))
+                              + (1 << 13)) >> 14 for k in range(8)], dtype=np.uint8)
+
+
+@njit(cache=True)
+def keep_window_changes(delta1: np.ndarray, image: np.ndarray, low_a: np.ndarray,
+                        low_b: np.ndarray, high_a: np.ndarray, high_b: np.ndarray, tau: int,
+                        top: int, left: int, height: int, width: int) -> None:
+    """DON layer 3 in place on ``delta1`` ((h, w) uint8), within its bounding box (``top``,
+    ``left``, ``height``, ``width``): l_1 = delta1 & union(delta2), where a pixel of
+    ``image`` ((h, w, 3) uint8) is in the union when a channel rises more than ``tau``
+    above the window's minimum (the lesser of ``low_a`` and ``low_b``) or falls more than
+    ``tau`` below its maximum (the greater of ``high_a`` and ``high_b``). As
+    `don.MotionMask` did it with OpenCV, the union is the grey value
+    (`GREY_OF_CHANNELS`) of a pixel whose passing channels are 255, and l_1 the bitwise
+    and of the two masks' values. (So a pixel whose masks pass in channels whose grey
+    values share no bit, blue alone (29) against red and green (226), is dropped; kept so
+    that the estimates stay what they were.)"""
+    for i in range(top, top + height):
+        for j in range(left, left + width):
+            if delta1[i, j] == 0:
+                continue
+            differs = 0
+            for c in range(3):
+                value = np.int32(image[i, j, c])
+                low = np.int32(min(low_a[i, j, c], low_b[i, j, c]))
+                high = np.int32(max(high_a[i, j, c], high_b[i, j, c]))
+                if value - low > tau or high - value > tau:
+                    differs |= 1 << c
+            delta1[i, j] &= GREY_OF_CHANNELS[differs]

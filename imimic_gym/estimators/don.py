@@ -122,6 +122,7 @@ import mujoco
 import numpy as np
 
 from imimic_gym.estimators.appearance import LinkAppearance
+from imimic_gym.estimators.compiled import keep_window_changes
 from imimic_gym.estimators.frames import FrameShapeError, WorkingFrames
 from imimic_gym.estimators.geometry import LinkTracker, component_lines, within_range
 from imimic_gym.estimators.motion import PathEstimator, TorqueModel
@@ -186,17 +187,27 @@ class SlidingExtrema:
         self.suffix_min: list[np.ndarray] = []
         self.suffix_max: list[np.ndarray] = []
 
+    def parts(self) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+        """Two (min, max) pairs of whole images whose elementwise min (of the mins) and
+        max (of the maxes) are the extrema over the last N pushed images (fewer at the
+        start): the previous block's suffix and the current block's run (one pair twice
+        where only one exists). Nothing is combined until a caller needs it, and then
+        only where it does (`compiled.keep_window_changes`)."""
+        k = len(self.block)
+        if k == 0:
+            whole = (self.suffix_min[0], self.suffix_max[0])
+            return whole, whole
+        run = (self.run_min, self.run_max)
+        if not self.suffix_min:
+            return run, run
+        return (self.suffix_min[k], self.suffix_max[k]), run
+
     def extrema(self, box: tuple[slice, slice] = (slice(None), slice(None))
                 ) -> tuple[np.ndarray, np.ndarray]:
         """(min, max) over the last N pushed images (fewer at the start), within ``box``
         (row and column slices; the whole image by default)."""
-        k = len(self.block)
-        if k == 0:
-            return self.suffix_min[0][box], self.suffix_max[0][box]
-        if not self.suffix_min:
-            return self.run_min[box], self.run_max[box]
-        return (cv2.min(self.suffix_min[k][box], self.run_min[box]),
-                cv2.max(self.suffix_max[k][box], self.run_max[box]))
+        (low_a, high_a), (low_b, high_b) = self.parts()
+        return cv2.min(low_a[box], low_b[box]), cv2.max(high_a[box], high_b[box])
 
     def push(self, image: np.ndarray) -> None:
         if self.block:
@@ -278,13 +289,10 @@ class MotionMask:
         left, top, width, height = cv2.boundingRect(delta1)
         if width == 0:
             return delta1
-        box = (slice(top, top + height), slice(left, left + width))
-        low, high = self.extrema.extrema(box)
-        current = image[box]
-        union = _any_channel_above(
-            cv2.max(cv2.subtract(current, low), cv2.subtract(high, current)), tau)
-        # DON layer 3: object identification, paper Eq. (OL).
-        cv2.bitwise_and(delta1[box], union, dst=delta1[box])
+        # DON layer 3: object identification, paper Eq. (OL), one compiled pass.
+        (low_a, high_a), (low_b, high_b) = self.extrema.parts()
+        keep_window_changes(delta1, image, low_a, low_b, high_a, high_b, tau,
+                            top, left, height, width)
         return delta1
 
 

@@ -74,23 +74,24 @@ class PathEstimator:
 
     def omega(self) -> np.ndarray:
         """Angular velocity (n,), rad/s: the mean of the last two v, centred on the frame."""
-        return np.array(_mean_of_last(self.V, 2, self.n)) * self.fps
+        return _mean_of_last(self.V, 2, self.n, self.fps)
 
     def alpha(self) -> np.ndarray:
         """Angular acceleration (n,), rad/s^2: the mean of the last three a."""
-        return np.array(_mean_of_last(self.A, 3, self.n)) * self.fps**2
+        return _mean_of_last(self.A, 3, self.n, self.fps**2)
 
 
-def _mean_of_last(values: deque[tuple[float, ...]], k: int, n: int) -> list[float]:
-    """Mean of the last ``k`` n-tuples of ``values`` (newest first in the sum, as before);
-    zeros if there are none."""
+def _mean_of_last(values: deque[tuple[float, ...]], k: int, n: int, scale: float
+                  ) -> np.ndarray:
+    """Mean of the last ``k`` n-tuples of ``values`` (newest first in the sum), times
+    ``scale``: (n,); zeros if there are none."""
     k = min(k, len(values))
     if k == 0:
-        return [0.0] * n
-    total = list(values[-1])
+        return np.zeros(n)
+    total = values[-1]
     for i in range(2, k + 1):
-        total = [t + x for t, x in zip(total, values[-i], strict=True)]
-    return [t / k for t in total]
+        total = tuple(t + x for t, x in zip(total, values[-i], strict=True))
+    return np.array([t / k * scale for t in total])
 
 
 class TorqueModel:
