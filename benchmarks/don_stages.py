@@ -6,10 +6,10 @@ smallest total over the runs, per frame (the machine is shared: the least distur
 is the closest to the cost; so the stages' figures come from different runs and are not
 summed). Each wrapper adds its own cost per call (measured on a no-op and reported). The
 whole frame is timed unwrapped (CPU time, median and minimum of as many runs) beside raw
-OpenCV MOG2 on the same frames. Under cProfile, the time inside OpenCV's calls and inside
-numpy's and Python's built-ins, against the same unwrapped time: what is left is the
-interpreter running DON's own Python, the one cost a faster DON could drop without
-changing what it computes. Usage:
+OpenCV MOG2 on the same frames. Under cProfile, the time inside OpenCV's calls, inside
+numpy's and Python's built-ins and inside DON's compiled loops (`estimators/compiled.py`),
+against the same unwrapped time: what is left is the interpreter running DON's own Python,
+the one cost a faster DON could drop without changing what it computes. Usage:
 
     .venv/bin/python benchmarks/don_stages.py --json benchmarks/results/don_stages.json
 """
@@ -33,7 +33,7 @@ import numpy as np
 from imimic_gym.bench import machine, per_frame_ms, run_raw_mog2
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
-from imimic_gym.estimators import appearance, don, frames, geometry, motion
+from imimic_gym.estimators import appearance, compiled, don, frames, geometry, motion
 
 # (owner, attribute, stage name); nested stages (a pivot solve inside `lines`) are
 # reported on their own and inside their caller.
@@ -100,14 +100,16 @@ def stage_times(clip_frames: np.ndarray, repeats: int) -> dict[str, float]:
 
 
 def library_time_us(clip_frames: np.ndarray, repeats: int) -> dict[str, Any]:
-    """us per frame DON spends inside OpenCV's calls and inside numpy's and Python's
-    built-in calls (cProfile's own time of each built-in): what the same calls would cost
-    with no time in the interpreter running DON's Python. Each of ``repeats`` runs is
+    """us per frame DON spends inside OpenCV's calls, inside numpy's and Python's
+    built-in calls (cProfile's own time of each built-in) and inside its compiled loops
+    (`estimators/compiled.py`): what the same calls would cost with no time in the
+    interpreter running DON's Python. Each of ``repeats`` runs is
     paired with a raw MOG2 run on the same frames, unprofiled, right after it, for its
     ratio (``ratios_mog2``: the paired runs' sum of both kinds / MOG2); the per-kind
     figures are the least over the runs. The profiler's hooks add a little to each call,
     so these lean high."""
-    best = {"opencv": float("inf"), "numpy_and_builtins": float("inf")}
+    best = {"opencv": float("inf"), "numpy_and_builtins": float("inf"),
+            "compiled": float("inf")}
     ratios = []
     for _ in range(repeats):
         profile = cProfile.Profile()
@@ -120,6 +122,8 @@ def library_time_us(clip_frames: np.ndarray, repeats: int) -> dict[str, Any]:
             if filename == "~":  # a built-in: OpenCV's are listed as "<name>"
                 kind = "opencv" if hasattr(cv2, name.strip("<>")) else "numpy_and_builtins"
                 totals[kind] += own
+            elif filename == compiled.__file__:  # numba's machine code, listed as Python
+                totals["compiled"] += own
         per_frame = {kind: total / len(clip_frames) * 1e6 for kind, total in totals.items()}
         ratios.append(sum(per_frame.values()) / 1e3 / mog2_ms)
         for kind, us in per_frame.items():
@@ -165,7 +169,8 @@ def main() -> None:
         print(f"{name:48s} {us:7.1f} us/frame")
     inside = library["us_per_frame"]
     print(f"inside OpenCV's calls {inside['opencv']:.0f} us/frame, numpy's and Python's "
-          f"built-ins {inside['numpy_and_builtins']:.0f}: with no interpreter time, DON / "
+          f"built-ins {inside['numpy_and_builtins']:.0f}, compiled loops "
+          f"{inside['compiled']:.0f}: with no interpreter time, DON / "
           f"raw MOG2 {np.median(ratios):.3f} (median of {len(ratios)} paired runs; "
           f"{min(ratios):.3f}-{max(ratios):.3f})")
     print(f"(each timer adds {overhead:.2f} us per call)")
