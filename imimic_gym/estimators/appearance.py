@@ -104,7 +104,7 @@ from collections import deque
 import cv2
 import numpy as np
 
-from imimic_gym.estimators.compiled import best_ray, colour_match
+from imimic_gym.estimators.compiled import best_ray, close_colour_mean, colour_match
 from imimic_gym.estimators.geometry import reach_square
 from imimic_gym.metrics import wrap_angle
 
@@ -389,8 +389,7 @@ class LinkAppearance:
     def _learn(self, patch: np.ndarray, weight: np.ndarray) -> None:
         """Move the colour toward the mean of the corridor's pixels that match it within
         SIGMA (``patch`` (rows, cols, 3) uint8, ``weight`` their match, 0-255)."""
-        close = cv2.compare(weight, 94, cv2.CMP_GT)  # 255 / e
-        if cv2.countNonZero(close) >= 3:
-            mean = cv2.mean(patch, mask=close)
+        count, *mean = close_colour_mean(patch, weight, 94)  # 255 / e
+        if count >= 3:
             self.colour = (*((1 - LEARNING_RATE) * c + LEARNING_RATE * m
-                             for c, m in zip(self.colour[:3], mean[:3], strict=True)), 0.0)
+                             for c, m in zip(self.colour[:3], mean, strict=True)), 0.0)

@@ -20,8 +20,9 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["GREY_OF_CHANNELS", "best_ray", "colour_match", "keep_window_changes", "pairwise_sum",
-           "pivot_solve", "region_moments"]
+__all__ = ["GREY_OF_CHANNELS", "best_ray", "close_colour_mean", "colour_match",
+           "keep_window_changes", "pairwise_sum", "pivot_solve", "region_moments",
+           "running_extrema"]
 
 _SIN_10_DEG = math.sin(math.radians(10))
 
@@ -272,7 +273,8 @@ GREY_OF_CHANNELS = np.array([(255 * (4899 * (k & 1) + 9617 * (k >> 1 & 1) + 1868
 @njit(cache=True)
 def keep_window_changes(delta1: np.ndarray, image: np.ndarray, low_a: np.ndarray,
                         low_b: np.ndarray, high_a: np.ndarray, high_b: np.ndarray, tau: int,
-                        top: int, left: int, height: int, width: int) -> None:
+                        top: int, left: int, height: int, width: int
+                        ) -> tuple[int, int, int, int, int]:
     """DON layer 3 in place on ``delta1`` ((h, w) uint8), within its bounding box (``top``,
     ``left``, ``height``, ``width``): l_1 = delta1 & union(delta2), where a pixel of
     ``image`` ((h, w, 3) uint8) is in the union when a channel rises more than ``tau``
@@ -282,7 +284,11 @@ def keep_window_changes(delta1: np.ndarray, image: np.ndarray, low_a: np.ndarray
     (`GREY_OF_CHANNELS`) of a pixel whose passing channels are 255, and l_1 the bitwise
     and of the two masks' values. (So a pixel whose masks pass in channels whose grey
     values share no bit, blue alone (29) against red and green (226), is dropped; kept so
-    that the estimates stay what they were.)"""
+    that the estimates stay what they were.)
+
+    Returns l_1's pixel count and bounding box (left, top, width, height; zeros where it
+    is empty), as ``cv2.countNonZero`` and ``cv2.boundingRect`` would give them."""
+    count, x0, y0, x1, y1 = 0, left + width, top + height, -1, -1
     for i in range(top, top + height):
         for j in range(left, left + width):
             if delta1[i, j] == 0:
@@ -295,3 +301,44 @@ def keep_window_changes(delta1: np.ndarray, image: np.ndarray, low_a: np.ndarray
                 if value - low > tau or high - value > tau:
                     differs |= 1 << c
             delta1[i, j] &= GREY_OF_CHANNELS[differs]
+            if delta1[i, j] != 0:
+                count += 1
+                x0, x1, y0, y1 = min(x0, j), max(x1, j), min(y0, i), max(y1, i)
+    if count == 0:
+        return 0, 0, 0, 0, 0
+    return count, x0, y0, x1 - x0 + 1, y1 - y0 + 1
+
+
+@njit(cache=True)
+def running_extrema(low: np.ndarray, high: np.ndarray, image: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """New arrays: the elementwise minimum of ``low`` and ``image`` and maximum of
+    ``high`` and ``image`` (all the same shape, uint8, C-contiguous). Into fresh arrays,
+    each in its own loop: then the compiler knows nothing aliases and vectorises."""
+    a, b, x = low.ravel(), high.ravel(), image.ravel()
+    new_low, new_high = np.empty_like(a), np.empty_like(b)
+    for k in range(x.size):
+        new_low[k] = min(a[k], x[k])
+    for k in range(x.size):
+        new_high[k] = max(b[k], x[k])
+    return new_low.reshape(image.shape), new_high.reshape(image.shape)
+
+
+@njit(cache=True)
+def close_colour_mean(patch: np.ndarray, weight: np.ndarray, above: int
+                      ) -> tuple[int, float, float, float]:
+    """How many pixels of ``weight`` ((h, w) uint8) exceed ``above``, and the mean RGB of
+    ``patch`` ((h, w, 3) uint8) over them, as ``cv2.mean(patch, mask=...)`` computes it (the
+    sum times the reciprocal of the count); zeros where there are none."""
+    count = 0
+    sums = np.zeros(3)
+    for i in range(weight.shape[0]):
+        for j in range(weight.shape[1]):
+            if weight[i, j] > above:
+                count += 1
+                for c in range(3):
+                    sums[c] += patch[i, j, c]
+    if count == 0:
+        return 0, 0.0, 0.0, 0.0
+    scale = 1.0 / count
+    return count, sums[0] * scale, sums[1] * scale, sums[2] * scale

@@ -122,7 +122,7 @@ import mujoco
 import numpy as np
 
 from imimic_gym.estimators.appearance import LinkAppearance
-from imimic_gym.estimators.compiled import keep_window_changes
+from imimic_gym.estimators.compiled import keep_window_changes, running_extrema
 from imimic_gym.estimators.frames import FrameShapeError, WorkingFrames
 from imimic_gym.estimators.geometry import LinkTracker, component_lines, within_range
 from imimic_gym.estimators.motion import PathEstimator, TorqueModel
@@ -211,16 +211,16 @@ class SlidingExtrema:
 
     def push(self, image: np.ndarray) -> None:
         if self.block:
-            self.run_min = cv2.min(self.run_min, image)
-            self.run_max = cv2.max(self.run_max, image)
+            self.run_min, self.run_max = running_extrema(self.run_min, self.run_max, image)
         else:
             self.run_min, self.run_max = image, image
         self.block.append(image)
         if len(self.block) == self.n:
             lows, highs = [self.block[-1]], [self.block[-1]]
             for img in reversed(self.block[:-1]):
-                lows.append(cv2.min(lows[-1], img))
-                highs.append(cv2.max(highs[-1], img))
+                low, high = running_extrema(lows[-1], highs[-1], img)
+                lows.append(low)
+                highs.append(high)
             self.suffix_min, self.suffix_max = lows[::-1], highs[::-1]
             self.block, self.run_min, self.run_max = [], None, None
 
@@ -251,6 +251,8 @@ class MotionMask:
         self.previous: np.ndarray | None = None
         self.extrema = SlidingExtrema(self.window)
         self.history: deque[np.ndarray] = deque(maxlen=self.window + 1)
+        # The newest l_1's pixel count and bounding box (left, top, width, height).
+        self.area, self.box = 0, (0, 0, 0, 0)
 
     @property
     def scale(self) -> float:
@@ -288,11 +290,14 @@ class MotionMask:
         # the frame in the rendered scenarios; nothing at all on a still frame).
         left, top, width, height = cv2.boundingRect(delta1)
         if width == 0:
+            self.area, self.box = 0, (0, 0, 0, 0)
             return delta1
-        # DON layer 3: object identification, paper Eq. (OL), one compiled pass.
+        # DON layer 3: object identification, paper Eq. (OL), one compiled pass, which
+        # also counts l_1's pixels and bounds them.
         (low_a, high_a), (low_b, high_b) = self.extrema.parts()
-        keep_window_changes(delta1, image, low_a, low_b, high_a, high_b, tau,
-                            top, left, height, width)
+        self.area, *box = keep_window_changes(delta1, image, low_a, low_b, high_a, high_b,
+                                              tau, top, left, height, width)
+        self.box = tuple(box)
         return delta1
 
 
@@ -579,7 +584,7 @@ class DON:
                                     reseek=self.reseek)
             return None
         self.last_mask = mask
-        area = cv2.countNonZero(mask)
+        area = self.motion.area
 
         measured = None
         if area < self.min_area:
@@ -588,7 +593,7 @@ class DON:
             if slow is None:
                 return self._link_missing(moved=False)
         else:
-            lines = self.link.lines(mask)
+            lines = self.link.lines(mask, self.motion.box)
             pivot = self.link.pivot()
             if pivot is None:
                 return self._before_pivot(lines, mask)

@@ -101,17 +101,20 @@ def reach_square(pivot: np.ndarray, radius: float) -> tuple[slice, slice]:
     return slice(max(top, 0), max(bottom, 0)), slice(max(left, 0), max(right, 0))
 
 
-def component_lines(mask: np.ndarray, min_area: int) -> np.ndarray:
+def component_lines(mask: np.ndarray, min_area: int,
+                    box: tuple[int, int, int, int] | None = None) -> np.ndarray:
     """Principal axis of every 8-connected component of ``mask`` with at least
     ``min_area`` pixels, from its second moments.
 
     ``mask``: (h, w) uint8 (or bool), nonzero where a pixel moves.
+    ``box``: the bounding box of its nonzero pixels (left, top, width, height), where the
+    caller knows it (`don.MotionMask`); else found here.
     Returns (k, 7) float64 rows, in OpenCV's label order: centre x, centre y, direction x,
     direction y, length (std along the axis, px), elongation (major/minor std ratio),
     area (px).
     """
     mask = mask.view(np.uint8)
-    left, top, width, height = cv2.boundingRect(mask)
+    left, top, width, height = cv2.boundingRect(mask) if box is None else box
     if width == 0:
         return np.zeros((0, 7))
     # Label only the moving pixels' bounding box, cropped from even coordinates: OpenCV
@@ -246,19 +249,19 @@ class PivotEstimator:
         return np.array([x, y]) if found else None
 
 
-def _follow(line: np.ndarray, previous: np.ndarray) -> tuple[int | None, float]:
+def _follow(line: list[float], previous: list[list[float]]) -> tuple[int | None, float]:
     """The line of ``previous`` (last frame's) that ``line`` continues, if any, and how
     far (px) it lies across from it: the nearest one (across) nearly parallel to it
     (within TURN_DEG), of a similar length and overlapping it along the axis. ``line`` slid
     sideways from it if that is SHIFT_PX or more. The nearest, not any: a turning link's
     leading sliver has last frame's trailing one parallel beside it, one link width away,
     and last frame's leading one just behind it."""
-    # Scalars: a frame has a few lines, and numpy's per-call cost on arrays that short is
-    # many times the arithmetic.
-    cx, cy, dx, dy, length = line[:5].tolist()
+    # Scalars (rows of `component_lines` as lists): a frame has a few lines, and numpy's
+    # per-call cost on arrays that short is many times the arithmetic.
+    cx, cy, dx, dy, length = line[:5]
     parallel_sin = math.sin(math.radians(TURN_DEG))
     nearest, nearest_across = None, math.inf
-    for index, (px, py, pdx, pdy, plength, *_) in enumerate(previous.tolist()):
+    for index, (px, py, pdx, pdy, plength, *_) in enumerate(previous):
         ox, oy = px - cx, py - cy
         across = abs(ox * dy - oy * dx)
         if (abs(pdx * dy - pdy * dx) < parallel_sin and 0.7 * length < plength < 1.4 * length
@@ -359,6 +362,7 @@ class LinkTracker:
         self.pivots = PivotEstimator(directions=self.directions, reach_back=reach_back,
                                      seek_every=seek_every)
         self._previous_lines = np.zeros((0, 7))
+        self._previous_rows: list[list[float]] = []  # the same, as lists
         self.sliding = np.zeros(0, dtype=bool)  # per line of the last `lines` call
         self._slid = np.zeros(0, dtype=bool)  # slid since the frame before, per line
         self.radius: float | None = None
@@ -388,40 +392,44 @@ class LinkTracker:
         estimate is agreed)."""
         return self.known_pivot if self.known_pivot is not None else self.pivots.pivot()
 
-    def lines(self, mask: np.ndarray) -> np.ndarray:
-        """The moving regions' lines (`component_lines`). Until a pivot is found every
-        elongated region feeds the pivot estimate; after that only regions accepted as
-        the link do (in `measure`), so a distractor or an occluder's edges cannot drag a
-        pivot that the link's own lines have fixed."""
-        lines = component_lines(mask, self.min_area)
+    def lines(self, mask: np.ndarray, box: tuple[int, int, int, int] | None = None
+              ) -> np.ndarray:
+        """The moving regions' lines (`component_lines`; ``box`` the bounding box of
+        ``mask``'s pixels, if known). Until a pivot is found every elongated region feeds
+        the pivot estimate; after that only regions accepted as the link do (in
+        `measure`), so a distractor or an occluder's edges cannot drag a pivot that the
+        link's own lines have fixed."""
+        lines = component_lines(mask, self.min_area, box)
         # An edge slid sideways (an occluder's side) when it did so in two frames running:
         # once can be the chance shape of a turning link's merged slivers.
-        follows = [_follow(line, self._previous_lines) for line in lines]
+        rows = lines.tolist()  # scalars from here: a frame has a few lines
+        follows = [_follow(row, self._previous_rows) for row in rows]
         slid = [k if across > SHIFT_PX else None for k, across in follows]
         self.sliding = np.array([k is not None and bool(self._slid[k]) for k in slid], bool)
         self._slid = np.array([k is not None for k in slid], bool)
         edges: list[int | None] = [None] * len(lines)
         if self.reseek:
-            edges = self._follow_edges(lines, [k for k, _ in follows])
+            edges = self._follow_edges(rows, [k for k, _ in follows])
         # Elongated, not sliding (nor rigid): what a pivot estimate may take.
-        feeds = ((lines[:, 5] > 1.4) & (lines[:, 4] > 3.0) & ~self.sliding).tolist()
+        feeds = [row[5] > 1.4 and row[4] > 3.0 and not sliding
+                 for row, sliding in zip(rows, self.sliding.tolist(), strict=True)]
         if self.known_pivot is None and self.pivots.pivot() is None:
             for line, feed, edge in zip(lines, feeds, edges, strict=True):
                 if feed:
                     self.pivots.add_line(line, edge)
         if self.reseek:
             self._seek_again(lines, feeds, edges)
-        self._expect_edges(lines, [k for k, _ in follows])
+        self._expect_edges(rows, [k for k, _ in follows])
         pivot = self.pivot()
         if pivot is None:
-            self._note_stopped_edges(lines)
-        self._previous_lines = lines
+            self._note_stopped_edges(rows)
+        self._previous_lines, self._previous_rows = lines, rows
         if pivot is not None and (self._radius_pivot is None
                                   or np.hypot(*(pivot - self._radius_pivot)) > 2.0):
             self.radius, self._radius_pivot = None, pivot  # r was measured from elsewhere
         return lines
 
-    def _expect_edges(self, lines: np.ndarray, previous: list[int | None]) -> None:
+    def _expect_edges(self, rows: list[list[float]], previous: list[int | None]) -> None:
         """Move last frame's sliding edges on by their shift into ``expected_edges`` (where
         they should be in this frame), and note this frame's for the next: each sliding
         line with the sideways shift from the line it continues (``previous``,
@@ -429,7 +437,6 @@ class LinkTracker:
         (merged with the link, say), for up to EDGE_MEMORY frames."""
         self.expected_edges = [(cx + sx, cy + sy, dx, dy, length) for (
             cx, cy, dx, dy, length), (sx, sy), _ in self._moving_edges]
-        rows = lines.tolist()
         sliding = [row for row, flag in zip(rows, self.sliding, strict=True) if flag]
         moving = []
         for edge, (_, shift, unseen) in zip(self.expected_edges, self._moving_edges,
@@ -440,12 +447,12 @@ class LinkTracker:
             if k is None or not flag:
                 continue
             cx, cy, dx, dy, length = row[:5]
-            across = ((cx - self._previous_lines[k, 0]) * -dy
-                      + (cy - self._previous_lines[k, 1]) * dx)
+            across = ((cx - self._previous_rows[k][0]) * -dy
+                      + (cy - self._previous_rows[k][1]) * dx)
             moving.append(((cx, cy, dx, dy, length), (-dy * across, dx * across), 0))
         self._moving_edges = moving
 
-    def _note_stopped_edges(self, lines: np.ndarray) -> None:
+    def _note_stopped_edges(self, rows: list[list[float]]) -> None:
         """``stopped_edges``: this frame's long regions that do not slide but lie along
         (`GUESS_EDGE_PX`, `GUESS_EDGE_DEG`) a long edge that slid (``expected_edges``) or
         one that had stopped in the last frame: a board whose side stops sliding.
@@ -480,7 +487,7 @@ class LinkTracker:
         `exp3-forearm-low` 22.68 -> 22.15; CamShift within 0.3)."""
         known = self._guess_edges()
         self.stopped_edges = [
-            tuple(row[:5]) for row, sliding in zip(lines.tolist(), self.sliding, strict=True)
+            tuple(row[:5]) for row, sliding in zip(rows, self.sliding, strict=True)
             if not sliding and row[4] > GUESS_EDGE_LENGTH and _edge_along(row, known)]
 
     def _guess_edges(self) -> list[tuple[float, ...]]:
@@ -489,12 +496,13 @@ class LinkTracker:
         return ([edge for edge in self.expected_edges if edge[4] > GUESS_EDGE_LENGTH]
                 + self.stopped_edges)
 
-    def _follow_edges(self, lines: np.ndarray, previous: list[int | None]) -> list[int]:
+    def _follow_edges(self, rows: list[list[float]], previous: list[int | None]
+                      ) -> list[int]:
         """Each line's edge id, carried on from the line of the last frame it continues
         (``previous``, `_follow`), else new. A rigid edge (`RIGID_FRAMES`) joins the
         sliding ones in ``self.sliding`` and leaves both pivot estimates."""
         edges = []
-        for index, (line, k) in enumerate(zip(lines.tolist(), previous, strict=True)):
+        for index, (line, k) in enumerate(zip(rows, previous, strict=True)):
             if k is None:
                 self._edge_count += 1
                 edges.append((self._edge_count, line[2], line[3], 1))

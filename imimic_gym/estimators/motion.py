@@ -6,6 +6,7 @@ velocity and acceleration, and those into the torque the robot needs.
 
 from __future__ import annotations
 
+import operator
 from collections import deque
 from collections.abc import Sequence
 
@@ -46,14 +47,12 @@ class PathEstimator:
                ) -> tuple[tuple[float, ...], tuple[float, ...]]:
         """Add this frame's location (n angles, rad); return (v, a) per frame,
         rad/frame(^2), n each."""
-        location = tuple(float(x) for x in location)
+        location = tuple(map(float, location))
         if self.location is None:
             v = (0.0,) * self.n
         else:
-            v = tuple(wrap_angle(x - last) for x, last in zip(location, self.location,
-                                                                strict=True))
-        a = (tuple(x - last for x, last in zip(v, self.V[-1], strict=True)) if self.V
-             else (0.0,) * self.n)
+            v = tuple(map(_wrapped_difference, location, self.location))
+        a = tuple(map(operator.sub, v, self.V[-1])) if self.V else (0.0,) * self.n
         self.location = location
         self.V.append(v)
         self.A.append(a)
@@ -68,8 +67,7 @@ class PathEstimator:
         newest = self.V.pop()
         self.A.pop()
         # The location before the newest, if the newest was not the first after a reset.
-        self.location = (tuple(x - v for x, v in zip(self.location, newest, strict=True))
-                         if self.V else None)
+        self.location = tuple(map(operator.sub, self.location, newest)) if self.V else None
         return self.update(location)
 
     def omega(self) -> np.ndarray:
@@ -90,8 +88,12 @@ def _mean_of_last(values: deque[tuple[float, ...]], k: int, n: int, scale: float
         return np.zeros(n)
     total = values[-1]
     for i in range(2, k + 1):
-        total = tuple(t + x for t, x in zip(total, values[-i], strict=True))
+        total = tuple(map(operator.add, total, values[-i]))
     return np.array([t / k * scale for t in total])
+
+
+def _wrapped_difference(angle: float, last: float) -> float:
+    return wrap_angle(angle - last)
 
 
 class TorqueModel:
