@@ -187,7 +187,7 @@ class PivotEstimator:
                  directions: tuple[float, float] | None = None,
                  reach_back: float | None = None) -> None:
         self.directions, self.reach_back = directions, reach_back
-        self.lines: deque[np.ndarray] = deque(maxlen=memory)
+        self.lines: deque[np.ndarray | list[float]] = deque(maxlen=memory)
         self.tracks: deque[int | None] = deque(maxlen=memory)  # each line's edge, if known
         self.seek_every, self.refine_every = seek_every, refine_every
         self.agree_px = agree_px
@@ -195,8 +195,9 @@ class PivotEstimator:
         self._last: np.ndarray | None = None
         self._candidate: np.ndarray | None = None
 
-    def add_line(self, line: np.ndarray, track: int | None = None) -> None:
-        """``line``: a row of `component_lines` (centre, direction, length, elongation);
+    def add_line(self, line: np.ndarray | list[float], track: int | None = None) -> None:
+        """``line``: a row of `component_lines` (centre, direction, length, elongation; an
+        array or a list);
         ``track``: the edge it was followed along (`LinkTracker`), if any."""
         self.lines.append(line)
         self.tracks.append(track)
@@ -375,7 +376,7 @@ class LinkTracker:
         self._edge_count = 0
         self._shadow = PivotEstimator(directions=self.directions, reach_back=reach_back,
                                       seek_every=seek_every)
-        self._recent: deque[np.ndarray] = deque(maxlen=RESEEK_MEMORY)
+        self._recent: deque[list[float]] = deque(maxlen=RESEEK_MEMORY)
         self._compared: np.ndarray | None = None  # the second estimate's last solve weighed
         self.reseeks = 0  # how often the pivot was replaced
         # Where the edges that slid lately should be in the newest frame: (centre x, y,
@@ -414,11 +415,11 @@ class LinkTracker:
         feeds = [row[5] > 1.4 and row[4] > 3.0 and not sliding
                  for row, sliding in zip(rows, self.sliding.tolist(), strict=True)]
         if self.known_pivot is None and self.pivots.pivot() is None:
-            for line, feed, edge in zip(lines, feeds, edges, strict=True):
+            for row, feed, edge in zip(rows, feeds, edges, strict=True):
                 if feed:
-                    self.pivots.add_line(line, edge)
+                    self.pivots.add_line(row, edge)
         if self.reseek:
-            self._seek_again(lines, feeds, edges)
+            self._seek_again(rows, feeds, edges)
         self._expect_edges(rows, [k for k, _ in follows])
         pivot = self.pivot()
         if pivot is None:
@@ -518,15 +519,15 @@ class LinkTracker:
         self._edges = edges
         return [edge for edge, *_ in edges]
 
-    def _seek_again(self, lines: np.ndarray, feeds: list[bool],
+    def _seek_again(self, rows: list[list[float]], feeds: list[bool],
                     edges: list[int | None]) -> None:
         """Feed the second pivot estimate the lines that may feed one (``feeds``) and
         replace the pivot where it explains the recent lines better (see the class
         docstring)."""
-        for line, feed, edge in zip(lines, feeds, edges, strict=True):
+        for row, feed, edge in zip(rows, feeds, edges, strict=True):
             if feed:
-                self._shadow.add_line(line, edge)
-                self._recent.append(line)
+                self._shadow.add_line(row, edge)
+                self._recent.append(row)
         current = self.pivots.pivot()
         if current is None:  # until then the second estimate sees the first's lines
             return
