@@ -14,13 +14,45 @@ def render(load: Callable[[str], dict],
     rows = [[name.strip(), f"{us:.0f}"] for name, us in stages["stages_us_per_frame"].items()]
     lib, ratios = stages["library_us_per_frame"], stages["library_ratios_mog2"]
     bench = next(row for row in load("don")["rows"] if row["resolution"] == stages["resolution"])
+    same = load("don_same_estimates")
+    path_us = sum(stages["stages_us_per_frame"][k] for k in (
+        "layer 4a: path estimator update", "layer 4a: omega", "layer 4a: alpha"))
     return f"""
 At {stages['resolution']}, on this shared 2-core machine, the default DON / raw MOG2
 measured {bench['ratio_mog2']:.2f} in the bench above and {stages['ratio_mog2_median']:.2f}
 (medians; {stages['ratio_mog2_min']:.2f} of minima) over {stages['repeats']} alternations of
 the stage script below; the paper's layers alone, {bench['ratio_mog2_paper']:.2f} in the
-bench (0.28 to 0.33 over the last three sessions' runs: it moves by a tenth between
-runs).
+bench. The ratio moves by a few hundredths from run to run here (raw MOG2's own time by a
+fifth), so at 240x320 the default DON sits at the paper's 0.3, not clearly below it.
+
+What made DON faster. Until revision 0ebd481 (whose committed runs read 0.41 in the bench
+and 0.46 in the stage script) most of a frame at 240x320 was not OpenCV's work but the
+interpreter's: a few hundred OpenCV and numpy calls a frame on arrays of a few hundred
+elements, each call's fixed cost most of its time. The inner loops that issued most of
+those calls now run as numba-compiled functions (`imimic_gym/estimators/compiled.py`): the
+pivot solve over all pairs of lines, the regions' moments, layer 3 (the union of the delta2
+and its intersection with delta1, counting and bounding l_1 in the same pass), the
+window's running extrema, and the appearance layer's colour match, choice of ray and
+colour-learning mean; and the path estimator and the tracker's per-line bookkeeping work
+on Python floats and lists instead of one-element numpy arrays and row views. Each
+compiled loop does the same arithmetic in the same order as the code it replaced (numpy's
+pairwise summation included), so every estimate is bit-identical:
+`benchmarks/don_same_estimates.py --base {same['base']} --json
+benchmarks/results/don_same_estimates.json` reads
+{"bit-identical" if same['bit_identical'] else f"differences {same['max_abs_difference']}"}
+over {len(same['scenarios'])} scenarios x {len(same['seeds'])} seeds (DON as the bench, the
+eval, with torques and prediction, and on depth), and no accuracy figure in this file moved.
+Stage by stage, least disturbed of 25 runs, us per frame at 0ebd481 -> now: pivot solves 48
+-> {stages['stages_us_per_frame']['pivot solves (inside lines / keypoints)']:.0f},
+`component_lines` 65 -> {stages['stages_us_per_frame']['  of which component_lines']:.0f},
+layers 2-3 44 -> {stages['stages_us_per_frame']['layers 2-3: differences, union, l_1']:.0f},
+the appearance layer 100 -> {stages['stages_us_per_frame']['appearance layer (ours)']:.0f},
+the path estimator's update, omega and alpha 32 -> {path_us:.0f}.
+What did not pay: the first layer's resize and Gaussian written as compiled loops
+(bit-identical to OpenCV's, but two to four times slower: numba did not vectorise them),
+layer 2's differences over the whole frame as one compiled pass (slower than OpenCV's
+three vectorised passes and its bounding box), and OpenCV's `sepFilter2D` in place of
+`GaussianBlur` (not bit-identical, no faster).
 
 Where DON's time goes at {stages['resolution']}. Command: `.venv/bin/python benchmarks/don_stages.py
 --json benchmarks/results/don_stages.json`. us per frame of each stage, its least disturbed total
@@ -31,26 +63,23 @@ keypoints), and each timer adds {stages['timer_overhead_us_per_call']:.1f} us pe
 {table(["stage", "us per frame"], rows)}
 
 Unwrapped, in the same runs: DON {stages['don_ms_median']:.3f} ms per frame (median; minimum
-{stages['don_ms_min']:.3f}) against raw MOG2's {stages['mog2_raw_ms_median']:.3f}. The paper's
-layers take most of it: the first layer (downscale of the full frame, then a 3x3 Gaussian: a
-fixed cost of the input), labelling the moving regions (`component_lines`), the differences and
-sliding extrema, and the periodic pivot solve. Our appearance layer takes about a fifth: a
-search over a few dozen rays (one `cv2.remap` of their points) and a line fitted in one
-corridor (`cv2.warpAffine`, then image moments), a few dozen OpenCV and numpy calls a frame
-on arrays of a few hundred pixels, where each call's fixed cost is most of its time.
+{stages['don_ms_min']:.3f}) against raw MOG2's {stages['mog2_raw_ms_median']:.3f}. The first
+layer (downscale of the full frame, then a 3x3 Gaussian: two OpenCV calls, a fixed cost of
+the input) is now the largest stage; then the lines of the moving regions (labelling,
+moments, following each edge from frame to frame) and our appearance layer.
 
 How much of that is the interpreter. Under cProfile, in the same script, DON spends
-{lib['opencv']:.0f} us a frame inside OpenCV's calls and {lib['numpy_and_builtins']:.0f} inside
-numpy's and Python's built-ins (least of {stages['library_runs']} runs; the profiler's hooks
-make both lean high); against the unwrapped minimum of {stages['don_ms_min'] * 1e3:.0f} us, the
-rest, about {stages['don_ms_min'] * 1e3 - sum(lib.values()):.0f} us, is the interpreter running
-DON's own Python. With none of that, the same calls would give DON / raw MOG2
-{median(ratios):.2f} (median of {len(ratios)} runs, each paired with a MOG2 run right after it;
-{min(ratios):.2f}-{max(ratios):.2f}): about the paper's 0.3. Getting from the ratio above to
-0.3 would take about all of the interpreter's time away, which tuning the Python does not
-do: it takes a compiled per-frame pipeline, and a clear margin below 0.3 fewer passes over
-the pixels as well.
-`benchmarks/don_same_estimates.py --base REV` checks that a change left every estimate as
-it was at REV: with the appearance layer off, an earlier restructuring of `DON.update`
-left every estimate bit-identical to the revision before it.
+{lib['opencv']:.0f} us a frame inside OpenCV's calls, {lib['numpy_and_builtins']:.0f} inside
+numpy's and Python's built-ins and {lib['compiled']:.0f} inside its compiled loops (least of
+{stages['library_runs']} runs each; the profiler's hooks make all three lean high); against
+the unwrapped minimum of {stages['don_ms_min'] * 1e3:.0f} us, the rest, about
+{stages['don_ms_min'] * 1e3 - sum(lib.values()):.0f} us, is the interpreter running DON's own
+Python. With none of that, the same calls would give DON / raw MOG2 {median(ratios):.2f}
+(median of {len(ratios)} runs, each paired with a MOG2 run right after it;
+{min(ratios):.2f}-{max(ratios):.2f}). The profiler's figures lean high, so the
+interpreter's share is if anything larger than that, but no longer most of a frame: a clear
+margin below 0.3 at 240x320 would need cheaper library work as well, above all the first
+layer (the largest stage: two OpenCV passes over the input, whose compiled replacements
+were slower) and the appearance layer's `cv2.remap` and `cv2.warpAffine` of a few hundred
+points each (as compiled loops, bit-identical, the ray search was slower too).
 """
