@@ -1,16 +1,19 @@
-"""The per-frame inner loops of the geometry layers, compiled with numba.
+"""DON's per-frame inner loops, compiled with numba: the pivot solve and the regions'
+moments (`geometry.py`), layer 3 and the window's running extrema (`don.py`), and the
+appearance layer's colour match, choice of ray and colour-learning mean (`appearance.py`).
 
-DON spends most of a frame at 240x320 not in OpenCV but in the interpreter, issuing a few
-hundred numpy and OpenCV calls on arrays of a few hundred elements, where each call's fixed
-cost is most of its time (benchmarks/RESULTS.md, "Where DON's time goes"). The loops here
-replace such runs of calls with one compiled call each. They compute exactly what the
-numpy code they replace computed: the same operations on the same float64 values in the
-same order (numpy's pairwise summation included), so every estimate is bit-identical
-(`benchmarks/don_same_estimates.py`).
+DON spent most of a frame at 240x320 not in OpenCV's work but in the interpreter, issuing a
+few hundred numpy and OpenCV calls on arrays of a few hundred elements, where each call's
+fixed cost is most of its time (benchmarks/RESULTS.md, "What made DON faster"). Each loop
+here replaces such a run of calls with one compiled call. It computes exactly what the
+calls it replaces computed: the same operations on the same values in the same order
+(numpy's pairwise summation and OpenCV's rounding included), so every estimate is
+bit-identical (`benchmarks/don_same_estimates.py`; tests/estimators/test_compiled.py holds
+each loop to the calls it replaced).
 
 Compiled on first use and cached on disk beside this file (numba's ``cache=True``; a
-read-only install falls back to numba's user cache), so only the first process pays the
-few seconds of compilation.
+read-only install falls back to numba's user cache), so only the first process pays for the
+compilation.
 """
 
 from __future__ import annotations

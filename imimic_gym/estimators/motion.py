@@ -48,6 +48,8 @@ class PathEstimator:
         """Add this frame's location (n angles, rad); return (v, a) per frame,
         rad/frame(^2), n each."""
         location = tuple(map(float, location))
+        if len(location) != self.n:
+            raise ValueError(f"PathEstimator tracks {self.n} angles, got {len(location)}")
         if self.location is None:
             v = (0.0,) * self.n
         else:

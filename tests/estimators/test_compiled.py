@@ -9,7 +9,16 @@ import cv2
 import numpy as np
 import pytest
 
-from imimic_gym.estimators.compiled import pairwise_sum, pivot_solve, region_moments
+from imimic_gym.estimators.appearance import _MATCH, MIN_CONTRAST, MIN_MATCH, _match
+from imimic_gym.estimators.compiled import (
+    best_ray,
+    close_colour_mean,
+    keep_window_changes,
+    pairwise_sum,
+    pivot_solve,
+    region_moments,
+    running_extrema,
+)
 
 
 @pytest.mark.parametrize("n", [1, 7, 8, 9, 15, 16, 127, 128, 129, 200, 256, 780, 1000, 5000])
@@ -58,3 +67,64 @@ def test_pivot_solve_drops_crossings_the_link_could_not_point_from() -> None:
     # Every line points up from the pivot: a pointing range that only allows down fails.
     assert pivot_solve(lines, math.nan, math.radians(90), math.radians(80), 20)[0]
     assert not pivot_solve(lines, math.nan, math.radians(-90), math.radians(80), 20)[0]
+
+
+def _opencv_match(pixels: np.ndarray, colour: tuple[float, ...]) -> np.ndarray:
+    """What the appearance layer computed with OpenCV before `colour_match`."""
+    return cv2.LUT(cv2.transform(cv2.absdiff(pixels, colour), np.ones((1, 3))), _MATCH)
+
+
+def test_colour_match_is_opencvs_absdiff_sum_and_table_to_the_bit() -> None:
+    rng = np.random.default_rng(1)
+    for trial in range(200):
+        pixels = rng.integers(0, 256, (7, 9, 3), dtype=np.uint8)
+        # Halves round to even, and colours past 0-255 saturate per channel, as in OpenCV.
+        rgb = np.round(rng.uniform(-40, 300, 3)) + (0.5 if trial % 2 else 0.3)
+        colour = (*rgb.tolist(), 0.0)
+        np.testing.assert_array_equal(_match(pixels, colour), _opencv_match(pixels, colour))
+
+
+def test_best_ray_picks_the_ray_with_the_colour_and_refuses_a_flat_background() -> None:
+    rng = np.random.default_rng(2)
+    samples = rng.integers(100, 110, (3 * 20, 14, 3), dtype=np.uint8)  # a grey wall
+    colour = (200, 120, 90)
+    assert best_ray(samples, colour, _MATCH, 3, 255 * MIN_MATCH, 255 * MIN_CONTRAST) == (-1, -1)
+    samples[3 * 7 + 2] = colour  # ray 7, shifted by its third offset, runs along the link
+    samples[3 * 7 + 1, :5] = colour
+    assert best_ray(samples, colour, _MATCH, 3, 255 * MIN_MATCH, 255 * MIN_CONTRAST) == (7, 2)
+
+
+def test_keep_window_changes_is_layer_3_as_opencv_computed_it() -> None:
+    rng = np.random.default_rng(3)
+    tau = 8
+    for _ in range(50):
+        image, previous, low_a, low_b = rng.integers(0, 256, (4, 30, 40, 3), dtype=np.uint8)
+        high_a, high_b = np.maximum(low_a, image), np.maximum(low_b, previous)
+
+        def any_channel(difference: np.ndarray) -> np.ndarray:
+            return cv2.cvtColor(cv2.threshold(difference, tau, 255, cv2.THRESH_BINARY)[1],
+                                cv2.COLOR_RGB2GRAY)
+
+        delta1 = any_channel(cv2.absdiff(image, previous))
+        low, high = cv2.min(low_a, low_b), cv2.max(high_a, high_b)
+        expected = cv2.bitwise_and(delta1, any_channel(
+            cv2.max(cv2.subtract(image, low), cv2.subtract(high, image))))
+        left, top, width, height = cv2.boundingRect(delta1)
+        count, *box = keep_window_changes(delta1, image, low_a, low_b, high_a, high_b, tau,
+                                          top, left, height, width)
+        np.testing.assert_array_equal(delta1, expected)
+        assert count == cv2.countNonZero(expected)
+        assert tuple(box) == cv2.boundingRect(expected)
+
+
+def test_running_extrema_and_close_colour_mean_match_opencv() -> None:
+    rng = np.random.default_rng(4)
+    low, high, image = rng.integers(0, 256, (3, 12, 16, 3), dtype=np.uint8)
+    new_low, new_high = running_extrema(low, high, image)
+    np.testing.assert_array_equal(new_low, cv2.min(low, image))
+    np.testing.assert_array_equal(new_high, cv2.max(high, image))
+    weight = rng.integers(0, 256, (12, 16), dtype=np.uint8)
+    count, *mean = close_colour_mean(image, weight, 94)
+    close = cv2.compare(weight, 94, cv2.CMP_GT)
+    assert count == cv2.countNonZero(close)
+    assert mean == list(cv2.mean(image, mask=close)[:3])  # to the bit: sum times 1 / count

@@ -24,3 +24,9 @@ def test_correcting_the_first_location_after_a_reset_gives_no_velocity() -> None
     path.update(np.array([2.0]))
     v, a = path.correct(np.array([2.5]))
     assert v[0] == 0.0 and a[0] == 0.0 and path.location[0] == 2.5
+
+
+def test_a_location_of_the_wrong_length_is_refused() -> None:
+    path = PathEstimator(2, fps=10.0)
+    with pytest.raises(ValueError, match="tracks 2 angles, got 1"):
+        path.update(np.array([0.1]))
