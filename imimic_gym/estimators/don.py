@@ -456,9 +456,7 @@ class DON:
         angles, omegas, alphas = np.array([q]), np.array([omega]), np.array([alpha])
         torque = (self.torque_model(angles, omegas, alphas) if self.torque_model is not None
                   else np.zeros(1))
-        keypoints = self.link.keypoints(angle) if self.link is not None else None
-        if keypoints is not None:
-            keypoints = keypoints * self.scale
+        keypoints = self.link.keypoints(angle, self.scale) if self.link is not None else None
         return Estimate(angles=angles, omega=omegas, alpha=alphas, torque=torque,
                         trust=min(max(float(trust), 0.0), 1.0), predicted=predicted,
                         keypoints=keypoints)

@@ -775,12 +775,13 @@ class LinkTracker:
             return slice(None), slice(None)
         return reach_square(pivot, self.radius)
 
-    def keypoints(self, angle: float) -> np.ndarray | None:
-        """(2, 2) working pixels of the pivot and the link's tip, once both are known."""
+    def keypoints(self, angle: float, scale: float = 1.0) -> np.ndarray | None:
+        """(2, 2) pixels of the pivot and the link's tip, once both are known: working
+        pixels times ``scale`` (input pixels per working pixel gives input pixels)."""
         pivot = self.pivot()
         if pivot is None or self.radius is None:
             return None
         px, py = float(pivot[0]), float(pivot[1])
-        return np.array([[px, py], [px + self.radius * math.cos(angle),
-                                    py - self.radius * math.sin(angle)]])
+        tip_x, tip_y = px + self.radius * math.cos(angle), py - self.radius * math.sin(angle)
+        return np.array([[px * scale, py * scale], [tip_x * scale, tip_y * scale]])
 

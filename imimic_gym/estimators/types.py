@@ -35,14 +35,16 @@ class Estimate:
     keypoints: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        n = np.asarray(self.angles).shape
+        n = np.shape(self.angles)
         for name in ("angles", "omega", "alpha", "torque"):
-            value = np.asarray(getattr(self, name), dtype=np.float64)
+            value = getattr(self, name)
+            if type(value) is not np.ndarray or value.dtype != np.float64:
+                value = np.asarray(value, dtype=np.float64)
+                object.__setattr__(self, name, value)
             # math.isfinite over a few joints: numpy's per-call cost is most of a frame's
             # bookkeeping here.
             if value.shape != n or not all(map(math.isfinite, value.ravel().tolist())):
                 raise ValueError(f"Estimate.{name} must be finite with shape {n}, got {value}")
-            object.__setattr__(self, name, value)
         if not 0.0 <= self.trust <= 1.0:
             raise ValueError(f"Estimate.trust must be in [0, 1], got {self.trust}")
 
