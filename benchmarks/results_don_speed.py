@@ -23,7 +23,9 @@ measured {bench['ratio_mog2']:.2f} in the bench above and {stages['ratio_mog2_me
 (medians; {stages['ratio_mog2_min']:.2f} of minima) over {stages['repeats']} alternations of
 the stage script below; the paper's layers alone, {bench['ratio_mog2_paper']:.2f} in the
 bench. The ratio moves by a few hundredths from run to run here (raw MOG2's own time by a
-fifth), so at 240x320 the default DON sits at the paper's 0.3, not clearly below it.
+fifth): the bench's previous run, with the same compiled loops (committed in 9b5e85c), read
+0.305 at 240x320, and the stage script's then 0.29. At 240x320 the default DON sits at the
+paper's 0.3, not clearly below it.
 
 What made DON faster. Until revision 0ebd481 (whose committed runs read 0.41 in the bench
 and 0.46 in the stage script) most of a frame at 240x320 was not OpenCV's work but the
@@ -47,7 +49,9 @@ Stage by stage, least disturbed of 25 runs, us per frame at 0ebd481 -> now: pivo
 `component_lines` 65 -> {stages['stages_us_per_frame']['  of which component_lines']:.0f},
 layers 2-3 44 -> {stages['stages_us_per_frame']['layers 2-3: differences, union, l_1']:.0f},
 the appearance layer 100 -> {stages['stages_us_per_frame']['appearance layer (ours)']:.0f},
-the path estimator's update, omega and alpha 32 -> {path_us:.0f}.
+the path estimator's update, omega and alpha 32 -> {path_us:.0f}; the first layer, whose
+code did not change, 79 -> {stages['stages_us_per_frame']['layer 1: downscale + Gaussian']:.0f}:
+the spread between two runs on this machine.
 What did not pay: the first layer's resize and Gaussian written as compiled loops
 (bit-identical to OpenCV's, but two to four times slower: numba did not vectorise them),
 layer 2's differences over the whole frame as one compiled pass (slower than OpenCV's
