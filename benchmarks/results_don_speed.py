@@ -53,10 +53,12 @@ the path estimator's update, omega and alpha 32 -> {path_us:.0f}; the first laye
 code did not change, 79 -> {stages['stages_us_per_frame']['layer 1: downscale + Gaussian']:.0f}:
 the spread between two runs on this machine.
 What did not pay: the first layer's resize and Gaussian written as compiled loops
-(bit-identical to OpenCV's, but two to four times slower: numba did not vectorise them),
+(bit-identical to OpenCV's, but slower: two to four times as first written, where numba did
+not vectorise them, and still no faster once rewritten so that it did),
 layer 2's differences over the whole frame as one compiled pass (slower than OpenCV's
-three vectorised passes and its bounding box), and OpenCV's `sepFilter2D` in place of
-`GaussianBlur` (not bit-identical, no faster).
+three vectorised passes and its bounding box), the ray search sampling the image itself in
+place of `cv2.remap` (bit-identical, but slower than the remap and the loop after it), and
+OpenCV's `sepFilter2D` in place of `GaussianBlur` (not bit-identical, no faster).
 
 Where DON's time goes at {stages['resolution']}. Command: `.venv/bin/python benchmarks/don_stages.py
 --json benchmarks/results/don_stages.json`. us per frame of each stage, its least disturbed total
