@@ -10,6 +10,8 @@ count of each frame: "bit-identical", or the largest difference per field. Usage
 
     .venv/bin/python benchmarks/don_same_estimates.py --base main \\
         --json benchmarks/results/don_same_estimates.json
+
+``--head REV`` compares revision REV instead of the working tree.
 """
 
 from __future__ import annotations
@@ -85,32 +87,39 @@ def compare(base: Path, head: Path) -> dict[str, float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--base", default="main", help="git revision to compare with")
+    parser.add_argument("--head", default=None,
+                        help="git revision to compare (default: this working tree)")
     parser.add_argument("--json", type=Path, default=None, help="also write results here")
     parser.add_argument("--capture", type=Path, default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.capture:
         capture(args.capture)
         return
-    revision = subprocess.run(["git", "rev-parse", args.base], cwd=ROOT, check=True,
-                              capture_output=True, text=True).stdout.strip()
+    revisions = {side: None if name is None else subprocess.run(
+        ["git", "rev-parse", name], cwd=ROOT, check=True, capture_output=True,
+        text=True).stdout.strip() for side, name in (("base", args.base), ("head", args.head))}
     with tempfile.TemporaryDirectory() as folder:
-        tree = Path(folder) / "base"
-        tree.mkdir()
-        archive = subprocess.run(["git", "archive", revision, "imimic_gym"], cwd=ROOT,
-                                 check=True, capture_output=True).stdout
-        subprocess.run(["tar", "-x", "-C", str(tree)], input=archive, check=True)
-        env = {**os.environ, "PYTHONPATH": str(tree)}
         paths = {"base": Path(folder) / "base.npz", "head": Path(folder) / "head.npz"}
         for side, path in paths.items():
+            env = None  # the working tree's imimic_gym
+            if revisions[side] is not None:  # an exported revision's, first on the path
+                tree = Path(folder) / side
+                tree.mkdir()
+                archive = subprocess.run(["git", "archive", revisions[side], "imimic_gym"],
+                                         cwd=ROOT, check=True, capture_output=True).stdout
+                subprocess.run(["tar", "-x", "-C", str(tree)], input=archive, check=True)
+                env = {**os.environ, "PYTHONPATH": str(tree)}
             subprocess.run([sys.executable, __file__, "--capture", str(path)], check=True,
-                           env=env if side == "base" else None, cwd=folder)
+                           env=env, cwd=folder)
         worst = compare(paths["base"], paths["head"])
     identical = not any(worst.values())
-    print(f"against {args.base} ({revision[:10]}): "
+    head = "this tree" if args.head is None else f"{args.head} ({revisions['head'][:10]})"
+    print(f"{head} against {args.base} ({revisions['base'][:10]}): "
           + ("bit-identical" if identical else f"largest differences {worst}"))
     if args.json:
         args.json.write_text(json.dumps({
-            "base": args.base, "base_commit": revision, "scenarios": SCENARIOS,
+            "base": args.base, "base_commit": revisions["base"], "head": args.head,
+            "head_commit": revisions["head"], "scenarios": SCENARIOS,
             "seeds": SEEDS, "bit_identical": identical, "max_abs_difference": worst},
             indent=2) + "\n")
 

@@ -39,11 +39,11 @@ colour-learning mean; and the path estimator and the tracker's per-line bookkeep
 on Python floats and lists instead of one-element numpy arrays and row views. Each
 compiled loop does the same arithmetic in the same order as the code it replaced (numpy's
 pairwise summation included), so every estimate is bit-identical:
-`benchmarks/don_same_estimates.py --base {same['base']} --json
-benchmarks/results/don_same_estimates.json` reads
+`benchmarks/don_same_estimates.py --base {same['base']} --head {same['head']} --json
+benchmarks/results/don_same_estimates.json` ({same['head']}: the loops done) reads
 {"bit-identical" if same['bit_identical'] else f"differences {same['max_abs_difference']}"}
 over {len(same['scenarios'])} scenarios x {len(same['seeds'])} seeds (DON as the bench, the
-eval, with torques and prediction, and on depth), and no accuracy figure in this file moved.
+eval, with torques and prediction, and on depth), and no accuracy figure moved with them.
 Stage by stage, least disturbed of 25 runs, us per frame at 0ebd481 -> now: pivot solves 48
 -> {stages['stages_us_per_frame']['pivot solves (inside lines / keypoints)']:.0f},
 `component_lines` 65 -> {stages['stages_us_per_frame']['  of which component_lines']:.0f},

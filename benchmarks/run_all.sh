@@ -48,10 +48,10 @@ fi
 # the candidates' .pt files (training/train_tracker.py runs), so it is not rerun here.
 "$BIN/imimic" eval --paper --json benchmarks/results/paper.json --out benchmarks/results/paper
 "$BIN/python" benchmarks/eval_paper_time.py --json benchmarks/results/paper_time.json
-# DON's time by stage (issue 3 speed), and that the compiled loops left every estimate as
-# it was at 0ebd481, the last revision without them.
+# DON's time by stage (issue 3 speed), and that the compiled loops (c3f9eeb) left every
+# estimate as it was at 0ebd481, the last revision without them.
 "$BIN/python" benchmarks/don_stages.py --json benchmarks/results/don_stages.json
-"$BIN/python" benchmarks/don_same_estimates.py --base 0ebd481 \
+"$BIN/python" benchmarks/don_same_estimates.py --base 0ebd481 --head c3f9eeb \
     --json benchmarks/results/don_same_estimates.json
 "$BIN/imimic" eval --scenario chain-2 chain-3 exp4-hand --estimator don don-paper --episodes 10 \
     --json benchmarks/results/don_links.json

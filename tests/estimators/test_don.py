@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 import pytest
 
-from imimic_gym.estimators.don import DON, FrameShapeError, SlidingExtrema
+from imimic_gym.estimators.don import DON, PREDICT_FROM_TRUST, FrameShapeError, SlidingExtrema
 from imimic_gym.estimators.geometry import component_lines
 from imimic_gym.metrics import wrap_angle
 
@@ -420,3 +420,21 @@ def test_the_prediction_layer_carries_a_hidden_link_on() -> None:
     assert np.mean([error(on, i) for i in hidden]) < np.mean([error(off, i) for i in hidden]) - 3
     assert all(np.isfinite(e.angles).all() and np.isfinite(e.omega).all() for e in on)
     assert error(on, 55) < 3.0 and not on[55].predicted
+
+
+def test_the_prediction_layer_does_not_roll_on_from_a_reading_of_half_the_link() -> None:
+    """As above, but for the five frames before it vanishes the bar shows only its inner
+    half: DON reads it, last as it vanishes in frame 40, with eta near 0.5, under
+    PREDICT_FROM_TRUST. That velocity is not trusted, so once the bar is gone the
+    estimate holds, not predicted; with the whole bar seen up to the last frame (the test
+    above) the same frames are predicted."""
+    angles = [math.radians(30 + 3.0 * i) for i in range(56)]
+    frames = [bar_frame(a, length=50.0 if 35 <= i < 40 else 100.0)
+              for i, a in enumerate(angles)]
+    for frame in frames[40:46]:
+        frame[:] = 0
+    estimates = DON(fps=FPS, pivot=tuple(PIVOT), trust_threshold=0.3).run(frames)
+    assert 0.3 < estimates[40].trust < PREDICT_FROM_TRUST  # the last frame it is read
+    assert not any(estimates[i].predicted for i in range(41, 46))
+    held = estimates[41].angles[0]
+    assert all(estimates[i].angles[0] == held for i in range(42, 46))
