@@ -364,6 +364,26 @@ def render(load, table) -> str:
   0-79 and 36% of `-low`'s): `-high` +0.11 / +0.12 (one clip 6.1 -> 15.0),
   `exp1-noisy-fast` +0.31 / -0.16, `-low` within 0.01.
 
+  Then the prediction layer (off by default; `imimic eval` scores it with threshold 0.3)
+  rolls the link on through frames without a reading only from a velocity DON trusted:
+  eta at least 0.8 (`PREDICT_FROM_TRUST`, the appearance layer's vouching level) at the
+  last frame the motion layers read it; after a less trusted reading it holds. On
+  development clip 66 of `-low` a reading of a half-hidden forearm (eta 0.38, 35 degrees
+  off) rolled it the wrong way, 47 -> 65 degrees off in five frames. Occluded-frame RMSE
+  with the layer on, seeds 0-79 (chosen) / 80-159: `-low` 8.45 -> 8.36 / 7.46 -> 7.46
+  (off: 8.38 / 7.57), `-high` 13.52 -> 13.67 / 14.29 -> 14.20 (off: 13.76 / 14.25): with
+  the rule the layer is below "off" in both scenarios on both halves, without it it was
+  above on `-low` 0-79 and `-high` 80-159. 0.5 left `-low` 0-79 at 8.38, no lower than
+  off. Predicting only once the link counts as hidden was worse (`-low` 8.58), and not
+  letting a partial reading with low eta start it changed nothing (within 0.01). The
+  default DON is unchanged. Held-out, measured once after, occluded frames with the layer
+  on: `-low` 15.72 -> 15.55 (off 15.57), `-high` 22.04 -> 22.12 (off 21.78; clip 1007
+  38.4 off, 45.5 on, as before), the paper's layers alone 17.47 -> 16.89 and 20.92 ->
+  20.70, on depth 13.17 -> 12.68 and 23.35 -> 22.57; on the 30 fresh clips `-low` 10.16
+  -> 10.53 (off 10.53: one clip, 2014, had gained 6.8 against 15.6 from a roll off an
+  untrusted reading, and now holds), `-high` 17.77 -> 17.58 (off 17.37). The layer acts
+  less: most clips now read as with it off, the large wins and losses both gone.
+
   Where the rest of the error is, on development clips 0-{sources['seeds'] - 1} (command:
   `.venv/bin/python benchmarks/don_error_sources.py --json
   benchmarks/results/don_error_sources.json`; share of the squared error by DON's state
