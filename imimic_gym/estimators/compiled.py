@@ -166,9 +166,12 @@ def pivot_solve(lines: np.ndarray, reach_back: float, middle: float, half_width:
     reached = 0
     for k in range(kept):
         i, j, c = pi_[k], pj[k], cross[k]
+        # The crossing is at centre_i + along_i * direction_i = centre_j + along_j * ...
         dx, dy = lines[j, 0] - lines[i, 0], lines[j, 1] - lines[i, 1]
         along_i = (dx * lines[j, 3] - dy * lines[j, 2]) / c
         if check_reach:
+            # Both regions must start near the crossing, beyond it: the gap from the
+            # crossing to a region's near end is over -reach_back and under its length.
             along_j = (dx * lines[i, 3] - dy * lines[i, 2]) / c
             ok = True
             for line, along in ((i, along_i), (j, along_j)):
@@ -180,6 +183,7 @@ def pivot_solve(lines: np.ndarray, reach_back: float, middle: float, half_width:
         x = lines[i, 0] + along_i * lines[i, 2]
         y = lines[i, 1] + along_i * lines[i, 3]
         if check_directions:
+            # Both regions must lie, seen from the crossing, where the link can point.
             ok = True
             for line in (i, j):
                 bearing = math.atan2(-(lines[line, 1] - y), lines[line, 0] - x)
