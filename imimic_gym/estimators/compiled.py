@@ -55,7 +55,8 @@ def pairwise_sum(values: np.ndarray, n: int) -> float:
     """Sum of ``values[:n]`` (float64) in numpy's order for a contiguous 1-d sum: blocks
     of at most 128 (`_block_sum`), halved (at a multiple of 8) until they are, and the
     halves' sums added, so that the result is numpy's to the last bit. The halving runs
-    on an explicit stack: numba cannot cache a recursive function."""
+    on an explicit stack: the recursive version, loaded from numba's cache, failed to link
+    ("unresolved symbol")."""
     firsts = np.empty(64, dtype=np.int64)
     sizes = np.empty(64, dtype=np.int64)
     split = np.zeros(64, dtype=np.bool_)
