@@ -1,5 +1,5 @@
-"""The compiled inner loops against the numpy arithmetic they replace, to the last bit:
-DON's estimates stay what they were only if these agree exactly."""
+"""The compiled inner loops against the numpy and OpenCV calls they replace, to the last
+bit: DON's estimates stay what they were only if these agree exactly."""
 
 from __future__ import annotations
 
