@@ -15,6 +15,7 @@ def render(load: Callable[[str], dict],
     lib, ratios = stages["library_us_per_frame"], stages["library_ratios_mog2"]
     bench = next(row for row in load("don")["rows"] if row["resolution"] == stages["resolution"])
     same = load("don_same_estimates")
+    compile_time = load("don_compile_time")
     path_us = sum(stages["stages_us_per_frame"][k] for k in (
         "layer 4a: path estimator update", "layer 4a: omega", "layer 4a: alpha"))
     return f"""
@@ -59,6 +60,13 @@ layer 2's differences over the whole frame as one compiled pass (slower than Ope
 three vectorised passes and its bounding box), the ray search sampling the image itself in
 place of `cv2.remap` (bit-identical, but slower than the remap and the loop after it), and
 OpenCV's `sepFilter2D` in place of `GaussianBlur` (not bit-identical, no faster).
+
+What the compiled loops cost once. Command: `.venv/bin/python benchmarks/don_compile_time.py
+--json benchmarks/results/don_compile_time.json`. A new process importing DON and running it
+on the bench's {compile_time['frames']} frames takes {compile_time['cold_first_run_s']:.1f} s
+with an empty numba cache (a fresh install: numba compiles every loop and caches it beside
+`compiled.py`), {compile_time['cached_first_run_s']:.1f} s once the cache is filled (the import
+and loading the loops), and a second run in the same process {compile_time['compiled_run_s']:.2f} s.
 
 Where DON's time goes at {stages['resolution']}. Command: `.venv/bin/python benchmarks/don_stages.py
 --json benchmarks/results/don_stages.json`. us per frame of each stage, its least disturbed total

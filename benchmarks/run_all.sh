@@ -53,6 +53,7 @@ fi
 "$BIN/python" benchmarks/don_stages.py --json benchmarks/results/don_stages.json
 "$BIN/python" benchmarks/don_same_estimates.py --base 0ebd481 --head c3f9eeb \
     --json benchmarks/results/don_same_estimates.json
+"$BIN/python" benchmarks/don_compile_time.py --json benchmarks/results/don_compile_time.json
 "$BIN/imimic" eval --scenario chain-2 chain-3 exp4-hand --estimator don don-paper --episodes 10 \
     --json benchmarks/results/don_links.json
 "$BIN/python" benchmarks/don_links_speed.py --json benchmarks/results/don_links_speed.json
