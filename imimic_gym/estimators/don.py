@@ -158,7 +158,10 @@ COAST_DECAY, PARTIAL = 0.8, 0.6
 # / 7.46 -> 7.46 deg, `exp3-forearm-high` 13.52 -> 13.67 / 14.29 -> 14.20; with the layer
 # off 8.38 / 7.57 and 13.76 / 14.25. So with the rule the layer lowers the occluded error
 # in both scenarios on both halves, where without it it raised it on `-low` 0-79 and on
-# `-high` 80-159. 0.5 (tried on 0-79) left `-low` at 8.38, no lower than off.
+# `-high` 80-159. 0.5 (tried on 0-79) left `-low` at 8.38, no lower than off. Held-out,
+# measured once after: `-low` 15.72 -> 15.55 (off 15.57), `-high` 22.04 -> 22.12 (off
+# 21.78); on 30 fresh clips `-low` 10.16 -> 10.53 (off 10.53), `-high` 17.77 -> 17.58 (off
+# 17.37). The layer acts less: most clips read as with it off, large wins and losses gone.
 PREDICT_FROM_TRUST = 0.8
 # A link last seen turning this fast (deg/frame) that leaves no moving pixel at all has
 # vanished (behind something), not stopped: a smooth stop slows through the speeds DON
