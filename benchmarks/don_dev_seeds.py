@@ -5,7 +5,8 @@ Per scenario: the mean settled RMSE (deg, after the first 0.5 s, as `imimic eval
 mean eta, on clips with occluded frames (over 10% of the link hidden) the RMSE on those
 frames and eta on them and on the others, and the median distance (input px) from the
 pivot DON found to the true elbow (person scenarios). Any DON keyword can be set with
-``--param NAME=VALUE`` (repeatable); ``--pivot-given`` tells DON where the elbow is.
+``--param NAME=VALUE`` (repeatable); ``--pivot-given`` tells DON where the elbow is;
+``--modality depth`` feeds it the clips' depth video instead of their colour.
 
 ``--compare FILE`` pairs this run clip by clip with an earlier ``--json FILE`` (same
 scenarios and seeds) and prints, per scenario, the mean change of settled RMSE with a
@@ -43,6 +44,7 @@ import numpy as np
 from imimic_gym.bench import machine
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
+from imimic_gym.envs.imitate_video import MODALITIES, depth_to_frame
 from imimic_gym.estimators.don import DON
 from imimic_gym.evaluation import WARM_UP_S
 from imimic_gym.metrics import OCCLUDED, angle_rmse_deg
@@ -53,9 +55,10 @@ SCENARIOS = ("exp3-forearm-none", "exp3-forearm-low", "exp3-forearm-high", "exp2
 ELBOW = 1  # keypoint index of the elbow in a one-link person clip
 
 
-def run_clip(job: tuple[str, int, dict[str, Any], bool]) -> dict[str, Any]:
-    """Scores for one clip: DON with ``params`` on ``scenario`` seed ``seed``."""
-    scenario, seed, params, pivot_given = job
+def run_clip(job: tuple[str, int, dict[str, Any], bool, str]) -> dict[str, Any]:
+    """Scores for one clip: DON with ``params`` on ``scenario`` seed ``seed``, fed its
+    colour or depth video (``modality``)."""
+    scenario, seed, params, pivot_given, modality = job
     spec = get_scenario(scenario, seed=seed)
     clip = load_clip(spec, progress=False)
     person = spec.demonstrator == "human"
@@ -64,7 +67,7 @@ def run_clip(job: tuple[str, int, dict[str, Any], bool]) -> dict[str, Any]:
         params = {**params, "pivot": tuple(float(v) for v in elbow)}
     don = DON(fps=clip.fps, reference_direction=spec.reference_direction,
               joint_range=spec.joint_ranges[0], **params)
-    estimates = don.run(clip.frames)
+    estimates = don.run(clip.frames if modality == "rgb" else depth_to_frame(clip.depth))
     angles = np.array([e.angles for e in estimates])
     trust = np.array([e.trust for e in estimates])
     warm = round(WARM_UP_S * clip.fps)
@@ -139,6 +142,9 @@ def main() -> None:
                         help="a DON keyword, NAME=VALUE (repeatable)")
     parser.add_argument("--pivot-given", action="store_true",
                         help="tell DON the true elbow (person scenarios)")
+    parser.add_argument("--modality", choices=MODALITIES, default="rgb",
+                        help="feed DON the clips' colour (default) or depth video, as "
+                             "ImitateVideo-v0(modality=...) shows it")
     parser.add_argument("--processes", type=int, default=2, help="worker processes")
     parser.add_argument("--json", type=Path, default=None, help="also write the results here")
     parser.add_argument("--compare", type=Path, default=None, metavar="FILE",
@@ -148,13 +154,13 @@ def main() -> None:
     if end > FIRST_HELD_OUT_SEED:
         parser.error(f"development seeds stay below {FIRST_HELD_OUT_SEED} (held out)")
     params = dict(args.param)
-    jobs = [(s, seed, params, args.pivot_given) for s in args.scenarios
+    jobs = [(s, seed, params, args.pivot_given, args.modality) for s in args.scenarios
             for seed in range(first, end)]
     with Pool(args.processes) as pool:
         rows = pool.map(run_clip, jobs)
     results = {s: summarise([r for r in rows if r["scenario"] == s]) for s in args.scenarios}
     print(f"DON {params or 'defaults'}{', pivot given' if args.pivot_given else ''}, "
-          f"development seeds {first}-{end - 1}")
+          f"{args.modality}, development seeds {first}-{end - 1}")
     for scenario, m in results.items():
         occluded = (f", occluded frames {m['rmse_occluded_deg']:.2f} deg, eta occluded/clear "
                     f"{m['mean_trust_occluded']:.2f}/{m['mean_trust_clear']:.2f}"
@@ -178,6 +184,7 @@ def main() -> None:
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps({"params": params, "pivot_given": args.pivot_given,
+                                         "modality": args.modality,
                                          "seeds": [first, end], "machine": machine(),
                                          "results": results, "rows": rows,
                                          **({"compare": {"against": str(args.compare),

@@ -10,6 +10,7 @@ import numpy as np
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import ClipSpec, get_scenario
 from imimic_gym.envs.imitate_video import MODALITIES, depth_to_frame
+from imimic_gym.estimators.don import DEPTH_GAUSSIAN
 from imimic_gym.estimators.don_links import LinkedDON
 from imimic_gym.metrics import OCCLUDED, angle_rmse_deg, lag_frames
 
@@ -71,6 +72,9 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
     if spec.n_links != 1 and estimator not in ("don", "don-paper"):
         raise ValueError(f"the estimators other than DON follow one moving link; "
                          f"{scenario!r} has {spec.n_links}")
+    # DON on depth video smooths it, as `DONObservation` does (`don.DEPTH_GAUSSIAN`).
+    smoothing = ({"gaussian": DEPTH_GAUSSIAN}
+                 if modality == "depth" and estimator in ("don", "don-paper") else {})
     rows = []
     for seed in range(first_seed, first_seed + episodes):
         clip = load_clip(spec.replace(seed=seed), progress=False)
@@ -78,7 +82,8 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
         truth = clip.truth.angles
         warm = round(WARM_UP_S * clip.fps)
         if spec.n_links == 1:
-            est = make_estimator(estimator, clip.meta, clip.fps, spec.joint_ranges[0])
+            est = make_estimator(estimator, clip.meta, clip.fps, spec.joint_ranges[0],
+                                 **smoothing)
         else:
             est = make_linked_don(spec, clip.fps, appearance=estimator == "don")
         estimates = est.run(frames)
@@ -102,7 +107,7 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
             row["mean_trust_clear"] = float(trust[~occluded].mean())
         if occluded.any() and estimator in ("don", "don-paper"):
             on = make_estimator(estimator, clip.meta, clip.fps, spec.joint_ranges[0],
-                                trust_threshold=PREDICTION_ON).run(frames)
+                                trust_threshold=PREDICTION_ON, **smoothing).run(frames)
             with_prediction = np.array([e.angles for e in on])
             row["rmse_occluded_deg_prediction_off"] = angle_rmse_deg(angles[occluded],
                                                                      truth[occluded])

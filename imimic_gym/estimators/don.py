@@ -6,17 +6,39 @@ differences alone: no labels, no background model.
 Decisions where the paper is vague or inconsistent (each is also noted where it acts):
 
 - Working resolution. Every layer runs on the frame area-averaged down to
-  ``working_height`` rows (120: half of the paper's 240x320), with the Gaussian scaled by
+  ``working_height`` rows (120: half of the paper's 240x320), with any Gaussian scaled by
   the same factor, in colour (`frames.py`). Angles are scale-free; pixel outputs are
   scaled back.
-- Smoothing and threshold: a 7x7 Gaussian at 240 rows (3x3, sigma 0.7, at 120) and 8 grey
-  levels, not the paper's 15x15 and our earlier 12. A forearm is 5-6 px wide at 240x320
-  with the person 2.2 m away; the paper's kernel spreads it over three times that, and a
-  forearm turning a degree or two per frame then changes no pixel by 12 levels, so DON
-  held a stale angle through every slow stretch. Chosen on development clips: with the
-  elbow given, settled RMSE 6.6 -> 5.5 deg on `exp3-forearm-none`, 11.5 -> 8.7 on
-  `exp3-forearm-low`, 17.9 -> 15.9 on `exp3-forearm-high` (`benchmarks/don_dev_seeds.py
-  --pivot-given`, with and without ``--param gaussian=15 --param threshold=12``).
+- Smoothing and threshold: no Gaussian (``gaussian=0``), only the area average down to
+  the working resolution (a 2x2 box at 240 rows), and 8 grey levels; not the paper's
+  15x15 and 12. A forearm is 5-6 px wide at 240x320 with the person 2.2 m away. The
+  paper's kernel spreads it over three times that, and a forearm turning a degree or two
+  per frame then changes no pixel by 12 levels, so DON held a stale angle through every
+  slow stretch: with the elbow given, settled RMSE 6.6 -> 5.5 deg on
+  `exp3-forearm-none`, 11.5 -> 8.7 on `exp3-forearm-low`, 17.9 -> 15.9 on
+  `exp3-forearm-high` with a 7x7 kernel and 8 levels (`benchmarks/don_dev_seeds.py
+  --pivot-given`, with ``--param gaussian=15 --param threshold=12`` and with ``--param
+  gaussian=7``). The
+  7x7 (3x3, sigma 0.7, at 120 rows) still did so, less, and no kernel at all did better
+  on development clips, settled RMSE 7x7 -> none, seeds 0-79 (chosen) / 80-159 (a
+  check; `benchmarks/don_dev_seeds.py --param gaussian=7 --json F`, then ``--compare
+  F``): `exp3-forearm-none` 2.08 -> 1.47 / 2.41 -> 1.72 deg, `exp3-forearm-low` 4.37 ->
+  3.16 / 4.78 -> 3.08 (95% interval of the change on 80-159 -2.7 to -0.9),
+  `exp3-forearm-high` 7.95 -> 7.34 / 9.01 -> 6.86 (-3.7 to -0.7), `default` 0.93 ->
+  0.73 / 0.93 -> 0.72, `exp1-noisy-fast` 11.17 -> 9.17 / 8.46 -> 9.05 (-1.1 to +2.3),
+  and worse only on `exp2-servo`, 0.43 -> 0.76 / 0.46 -> 0.74 (a white bar's edges
+  turning slowly leave dotted slivers). On seeds 160-319, which no rule had been chosen
+  on: `exp3-forearm-low` 5.95 -> 3.39 (-3.4 to -1.8), `exp3-forearm-high` 9.96 -> 7.28
+  (-3.6 to -1.8). With camera noise added (Gaussian, sigma 2 and 4 grey levels per
+  pixel and frame, seeds 0-39) it still did better: `exp3-forearm-low` 4.91 -> 2.44 and
+  4.62 -> 2.91, `exp3-forearm-none` 2.41 -> 1.55 and 2.30 -> 1.60; the area average
+  halves that noise before the threshold sees it. A [1, 2, 1] kernel (more smoothing)
+  did worse (seeds 0-79, `exp3-forearm-low` 4.37 -> 6.12); without a kernel, thresholds
+  of 6, 10 and 12 were within the clips' noise of 8, which stayed. It also takes 40% off
+  layer 1's time (`benchmarks/don_stages.py` at 240x320: 69 -> 40 us a frame). On a
+  hard-edged white bar on black (the tests' bar) the link's visible length then scatters
+  by about 3%, so eta reads 0.94-0.99 in the clear rather than 0.97-0.99. Depth video
+  keeps the 7x7 (`DEPTH_GAUSSIAN` says why).
 - Difference indices. The paper's Eq. (f1) runs p = 0..N-1 and so needs f_{t+1}; we use
   delta1_p = |f_{t-p+1} - f_{t-p}|, p = 1..N, so delta1_1 is the newest difference.
 - Incremental union. |f_t - f_{t-p}| > tau for some p exactly when f_t > min_p f_{t-p} +
@@ -131,7 +153,7 @@ from imimic_gym.estimators.motion import PathEstimator, TorqueModel
 from imimic_gym.estimators.types import Estimate
 from imimic_gym.metrics import wrap_angle
 
-__all__ = ["DON", "FrameShapeError", "MotionMask", "SlidingExtrema"]
+__all__ = ["DEPTH_GAUSSIAN", "DON", "FrameShapeError", "MotionMask", "SlidingExtrema"]
 
 # How far (working px) a moving region may reach back past the pivot and still be the
 # link: a sliver of l_1 starts at the pivot, give or take the link's rounded end.
@@ -163,6 +185,18 @@ COAST_DECAY, PARTIAL = 0.8, 0.6
 # 21.78); on 30 fresh clips `-low` 10.16 -> 10.53 (off 10.53), `-high` 17.77 -> 17.58 (off
 # 17.37). The layer acts less: most clips read as with it off, large wins and losses gone.
 PREDICT_FROM_TRUST = 0.8
+# The Gaussian (kernel size at 240 rows) for DON on depth video, where colour takes none
+# (module docstring). Depth frames are the depth buffer quantised to grey levels, without
+# the anti-aliasing of the colour render, and their hard steps scatter the link's moving
+# pixels as the tests' hard-edged bar does. Settled RMSE on development clips' depth
+# video, no Gaussian -> 7x7, seeds 0-79 / 80-159 (`benchmarks/don_dev_seeds.py --modality
+# depth`): `exp3-forearm-none` 4.04 -> 1.85 / 3.24 -> 1.67 deg, `exp3-forearm-low` 6.71 ->
+# 5.73 / 5.74 -> 4.76, `default` 1.86 -> 0.39 / 1.76 -> 0.38, `exp2-servo` 0.75 -> 0.36 /
+# 0.72 -> 0.42, `exp3-forearm-high` 12.58 -> 11.24 / 11.70 -> 12.23, and only
+# `exp1-noisy-fast` worse, 10.72 -> 15.47 / 10.51 -> 15.27. So depth keeps the 7x7 DON
+# used on colour before (`ImitateVideo-v0(modality="depth")` behind `DONObservation`, and
+# `imimic eval --modality depth`).
+DEPTH_GAUSSIAN = 7
 # A link last seen turning this fast (deg/frame) that leaves no moving pixel at all has
 # vanished (behind something), not stopped: a smooth stop slows through the speeds DON
 # still sees.
@@ -324,8 +358,9 @@ class DON:
     Args:
         fps: frame rate of the video, for rad/s.
         window: N, the frames in the input layer (paper: 10).
-        gaussian: the Gaussian kernel size at 240 rows (paper: 15; see the module
-            docstring for why 7).
+        gaussian: the Gaussian kernel size at 240 rows (paper: 15); 0, the default,
+            for none beyond the area average to the working resolution (see the module
+            docstring for why). Depth video wants `DEPTH_GAUSSIAN`.
         threshold: binarisation threshold of a difference, grey levels, in any colour
             channel.
         working_height: rows of the working resolution (see the module docstring).
@@ -375,7 +410,7 @@ class DON:
         self,
         fps: float = 30.0,
         window: int = 10,
-        gaussian: int = 7,
+        gaussian: int = 0,
         threshold: int = 8,
         working_height: int = 120,
         reference_direction: float = 0.0,

@@ -7,6 +7,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import imimic_gym  # noqa: F401
 from imimic_gym.controllers import EstimateTarget, PDController
+from imimic_gym.estimators.don import DEPTH_GAUSSIAN
 from imimic_gym.estimators.types import Estimate
 from imimic_gym.metrics import angle_rmse_deg
 from imimic_gym.rollout import run_episode
@@ -58,6 +59,17 @@ def test_estimate_follows_the_servo_through_the_env(modality: str) -> None:
         done = terminated or truncated
     # After half a second of warm-up (DON needs motion to find the pivot).
     assert angle_rmse_deg(np.array(estimated)[15:], np.array(truth)[15:]) < 3.0
+
+
+def test_don_smooths_depth_video_and_not_colour() -> None:
+    """Depth frames have hard, aliased steps: DON on them keeps the 7x7 Gaussian
+    (`DEPTH_GAUSSIAN`), on colour none; a ``gaussian`` given to the wrapper wins."""
+    def smoothing(env: gym.Env) -> int:
+        return env.estimator.motion.frames.gaussian
+
+    assert smoothing(DONObservation(servo_env(modality="depth"))) == DEPTH_GAUSSIAN == 7
+    assert smoothing(DONObservation(servo_env())) == 0
+    assert smoothing(DONObservation(servo_env(modality="depth"), gaussian=0)) == 0
 
 
 def test_pd_on_don_drives_the_robot_close_to_the_human() -> None:
