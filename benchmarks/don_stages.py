@@ -38,7 +38,7 @@ from imimic_gym.estimators import appearance, compiled, don, frames, geometry, m
 # (owner, attribute, stage name); nested stages (a pivot solve inside `lines`) are
 # reported on their own and inside their caller.
 STAGES = (
-    (frames.WorkingFrames, "__call__", "layer 1: downscale + Gaussian"),
+    (frames.WorkingFrames, "__call__", "layer 1: downscale (+ Gaussian, if set)"),
     (don.MotionMask, "_moving_pixels", "layers 2-3: differences, union, l_1"),
     (don.DON, "_slow_reading", "slow link: delta2 half and a whole window back"),
     (don.SlidingExtrema, "push", "layer 2: sliding min/max update"),

@@ -16,6 +16,7 @@ def render(load: Callable[[str], dict],
     bench = next(row for row in load("don")["rows"] if row["resolution"] == stages["resolution"])
     same = load("don_same_estimates")
     compile_time = load("don_compile_time")
+    layer1 = stages["stages_us_per_frame"]["layer 1: downscale (+ Gaussian, if set)"]
     path_us = sum(stages["stages_us_per_frame"][k] for k in (
         "layer 4a: path estimator update", "layer 4a: omega", "layer 4a: alpha"))
     return f"""
@@ -24,9 +25,12 @@ measured {bench['ratio_mog2']:.2f} in the bench above and {stages['ratio_mog2_me
 (medians; {stages['ratio_mog2_min']:.2f} of minima) over {stages['repeats']} alternations of
 the stage script below; the paper's layers alone, {bench['ratio_mog2_paper']:.2f} in the
 bench. The ratio moves by a few hundredths from run to run here (raw MOG2's own time by a
-fifth): the bench's previous run, with the same compiled loops (committed in 9b5e85c), read
-0.305 at 240x320, and the stage script's then 0.29. At 240x320 the default DON sits at the
-paper's 0.3, not clearly below it.
+fifth). With the compiled loops below and a 3x3 Gaussian still in the first layer, the
+bench read 0.305 and 0.27 at 240x320 (committed in 9b5e85c and d089927) and the stage
+script 0.29-0.30: at the paper's 0.3, not clearly below it. Then DON dropped the Gaussian
+(for accuracy: DON's section below), which took the first layer from about 70 us a frame
+to about 40 on this machine; the default DON is now below 0.3 at 240x320 by more than the
+runs' spread.
 
 What made DON faster. Until revision 0ebd481 (whose committed runs read 0.41 in the bench
 and 0.46 in the stage script) most of a frame at 240x320 was not OpenCV's work but the
@@ -45,14 +49,16 @@ benchmarks/results/don_same_estimates.json` ({same['head']}: the loops done) rea
 {"bit-identical" if same['bit_identical'] else f"differences {same['max_abs_difference']}"}
 over {len(same['scenarios'])} scenarios x {len(same['seeds'])} seeds (DON as the bench, the
 eval, with torques and prediction, and on depth), and no accuracy figure moved with them.
-Stage by stage, least disturbed of 25 runs, us per frame at 0ebd481 -> now: pivot solves 48
+Stage by stage, least disturbed of 25 runs, us per frame at 0ebd481 -> now (0ebd481's
+measured in an earlier session, when raw MOG2 took 1.25-1.29 ms a frame against
+{stages['mog2_raw_ms_median']:.2f} in this run: compare the ratios above across sessions,
+not these microseconds): pivot solves 48
 -> {stages['stages_us_per_frame']['pivot solves (inside lines / keypoints)']:.0f},
 `component_lines` 65 -> {stages['stages_us_per_frame']['  of which component_lines']:.0f},
 layers 2-3 44 -> {stages['stages_us_per_frame']['layers 2-3: differences, union, l_1']:.0f},
 the appearance layer 100 -> {stages['stages_us_per_frame']['appearance layer (ours)']:.0f},
-the path estimator's update, omega and alpha 32 -> {path_us:.0f}; the first layer, whose
-code did not change, 79 -> {stages['stages_us_per_frame']['layer 1: downscale + Gaussian']:.0f}:
-the spread between two runs on this machine.
+the path estimator's update, omega and alpha 32 -> {path_us:.0f}; the first layer 79 ->
+{layer1:.0f}, since it has no Gaussian now.
 What did not pay: the first layer's resize and Gaussian written as compiled loops
 (bit-identical to OpenCV's, but slower: two to four times as first written, where numba did
 not vectorise them, and still no faster once rewritten so that it did),
@@ -77,10 +83,10 @@ keypoints), and each timer adds {stages['timer_overhead_us_per_call']:.1f} us pe
 {table(["stage", "us per frame"], rows)}
 
 Unwrapped, in the same runs: DON {stages['don_ms_median']:.3f} ms per frame (median; minimum
-{stages['don_ms_min']:.3f}) against raw MOG2's {stages['mog2_raw_ms_median']:.3f}. The first
-layer (downscale of the full frame, then a 3x3 Gaussian: two OpenCV calls, a fixed cost of
-the input) is now the largest stage; then the lines of the moving regions (labelling,
-moments, following each edge from frame to frame) and our appearance layer.
+{stages['don_ms_min']:.3f}) against raw MOG2's {stages['mog2_raw_ms_median']:.3f}. The three
+largest stages are about equal: the first layer (one OpenCV call, the downscale of the full
+frame, a fixed cost of the input), the lines of the moving regions (labelling, moments,
+following each edge from frame to frame) and our appearance layer.
 
 How much of that is the interpreter. Under cProfile, in the same script, DON spends
 {lib['opencv']:.0f} us a frame inside OpenCV's calls, {lib['numpy_and_builtins']:.0f} inside
@@ -91,9 +97,8 @@ the unwrapped minimum of {stages['don_ms_min'] * 1e3:.0f} us, the rest, about
 Python. With none of that, the same calls would give DON / raw MOG2 {median(ratios):.2f}
 (median of {len(ratios)} runs, each paired with a MOG2 run right after it;
 {min(ratios):.2f}-{max(ratios):.2f}). The profiler's figures lean high, so the
-interpreter's share is if anything larger than that, but no longer most of a frame: a clear
-margin below 0.3 at 240x320 would need cheaper library work as well, above all the first
-layer (the largest stage: two OpenCV passes over the input, whose compiled replacements
-were slower) and the appearance layer's `cv2.remap` and `cv2.warpAffine` of a few hundred
-points each (as compiled loops, bit-identical, the ray search was slower too).
+interpreter's share is if anything larger than that, but no longer most of a frame: more
+speed would need cheaper library work as well, the first layer's pass over the input and
+the appearance layer's `cv2.remap` and `cv2.warpAffine` of a few hundred points each (as
+compiled loops, bit-identical, the ray search was slower).
 """
