@@ -18,11 +18,10 @@ Decisions where the paper is vague or inconsistent (each is also noted where it 
   `exp3-forearm-none`, 11.5 -> 8.7 on `exp3-forearm-low`, 17.9 -> 15.9 on
   `exp3-forearm-high` with a 7x7 kernel and 8 levels (`benchmarks/don_dev_seeds.py
   --pivot-given`, with ``--param gaussian=15 --param threshold=12`` and with ``--param
-  gaussian=7``). The
-  7x7 (3x3, sigma 0.7, at 120 rows) still did so, less, and no kernel at all did better
-  on development clips, settled RMSE 7x7 -> none, seeds 0-79 (chosen) / 80-159 (a
-  check; `benchmarks/don_dev_seeds.py --param gaussian=7 --json F`, then ``--compare
-  F``): `exp3-forearm-none` 2.08 -> 1.47 / 2.41 -> 1.72 deg, `exp3-forearm-low` 4.37 ->
+  gaussian=7``). The 7x7 (3x3, sigma 0.7, at 120 rows) still did so, less, and no kernel
+  at all did better on development clips, settled RMSE 7x7 -> none, seeds 0-79 (chosen)
+  / 80-159 (a check; `benchmarks/don_dev_seeds.py --param gaussian=7 --json F`, then
+  ``--compare F``): `exp3-forearm-none` 2.08 -> 1.47 / 2.41 -> 1.72 deg, `exp3-forearm-low` 4.37 ->
   3.16 / 4.78 -> 3.08 (95% interval of the change on 80-159 -2.7 to -0.9),
   `exp3-forearm-high` 7.95 -> 7.34 / 9.01 -> 6.86 (-3.7 to -0.7), `default` 0.93 ->
   0.73 / 0.93 -> 0.72, `exp1-noisy-fast` 11.17 -> 9.17 / 8.46 -> 9.05 (-1.1 to +2.3),
