@@ -10,7 +10,7 @@ import numpy as np
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import ClipSpec, get_scenario
 from imimic_gym.envs.imitate_video import MODALITIES, depth_to_frame
-from imimic_gym.estimators.don import DEPTH_GAUSSIAN
+from imimic_gym.estimators.don import gaussian_for
 from imimic_gym.estimators.don_links import LinkedDON
 from imimic_gym.metrics import OCCLUDED, angle_rmse_deg, lag_frames
 
@@ -72,9 +72,9 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
     if spec.n_links != 1 and estimator not in ("don", "don-paper"):
         raise ValueError(f"the estimators other than DON follow one moving link; "
                          f"{scenario!r} has {spec.n_links}")
-    # DON on depth video smooths it, as `DONObservation` does (`don.DEPTH_GAUSSIAN`).
-    smoothing = ({"gaussian": DEPTH_GAUSSIAN}
-                 if modality == "depth" and estimator in ("don", "don-paper") else {})
+    # DON smooths depth video, not colour, as `DONObservation` does.
+    smoothing = ({"gaussian": gaussian_for(modality)}
+                 if estimator in ("don", "don-paper") else {})
     rows = []
     for seed in range(first_seed, first_seed + episodes):
         clip = load_clip(spec.replace(seed=seed), progress=False)

@@ -152,7 +152,8 @@ from imimic_gym.estimators.motion import PathEstimator, TorqueModel
 from imimic_gym.estimators.types import Estimate
 from imimic_gym.metrics import wrap_angle
 
-__all__ = ["DEPTH_GAUSSIAN", "DON", "FrameShapeError", "MotionMask", "SlidingExtrema"]
+__all__ = ["DEPTH_GAUSSIAN", "DON", "FrameShapeError", "MotionMask", "SlidingExtrema",
+           "gaussian_for"]
 
 # How far (working px) a moving region may reach back past the pivot and still be the
 # link: a sliver of l_1 starts at the pivot, give or take the link's rounded end.
@@ -200,6 +201,12 @@ DEPTH_GAUSSIAN = 7
 # vanished (behind something), not stopped: a smooth stop slows through the speeds DON
 # still sees.
 VANISH_DEG = 1.5
+
+
+def gaussian_for(modality: str) -> int:
+    """DON's ``gaussian`` for video of ``modality`` ("rgb" or "depth", as
+    `ImitateVideo-v0` shows it): none for colour, `DEPTH_GAUSSIAN` for depth."""
+    return DEPTH_GAUSSIAN if modality == "depth" else 0
 
 
 class Reading(NamedTuple):

@@ -13,7 +13,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from imimic_gym.estimators.don import DEPTH_GAUSSIAN, DON
+from imimic_gym.estimators.don import DON, gaussian_for
 from imimic_gym.estimators.don_links import LinkedDON
 from imimic_gym.estimators.types import Estimate, Estimator
 
@@ -145,8 +145,7 @@ class DONObservation(EstimatorObservation):
             "robot": inner.model,
         }
         if inner.arm.n_links == 1:
-            if inner.modality == "depth":
-                params["gaussian"] = DEPTH_GAUSSIAN
+            params["gaussian"] = gaussian_for(inner.modality)
             estimator = DON(**{"joint_range": tuple(inner.arm.joint_ranges[0]), **params,
                                **don_params})
         else:
