@@ -26,7 +26,8 @@ from tqdm import tqdm
 from imimic_gym.bench import machine
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
-from imimic_gym.evaluation import WARM_UP_S, make_linked_don
+from imimic_gym.estimators.registry import build_estimator
+from imimic_gym.evaluation import WARM_UP_S, clip_context
 from imimic_gym.metrics import angle_rmse_deg, wrap_angle
 
 SCENARIOS = ("exp3-forearm-none", "exp3-forearm-low", "exp3-forearm-high")
@@ -58,7 +59,7 @@ def run_chain_clip(scenario: str, seed: int, pivot_given: bool) -> dict:
     clip = load_clip(spec, progress=False)
     shoulder = clip.truth.keypoints[:, clip.truth.keypoint_names.index("shoulder")].mean(axis=0)
     params = {"pivot": tuple(float(v) for v in shoulder)} if pivot_given else {}
-    don = make_linked_don(spec, clip.fps, **params)
+    don = build_estimator("don", clip_context(spec, clip), **params)
     angles = np.array([e.angles for e in don.run(clip.frames)])
     warm = round(WARM_UP_S * clip.fps)
     truth = clip.truth.angles[warm:]

@@ -25,7 +25,8 @@ import numpy as np
 from imimic_gym.bench import machine
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
-from imimic_gym.evaluation import WARM_UP_S, make_linked_don
+from imimic_gym.estimators.registry import build_estimator
+from imimic_gym.evaluation import WARM_UP_S, clip_context
 from imimic_gym.metrics import angle_rmse_deg
 from imimic_gym.suite import FIRST_HELD_OUT_SEED
 
@@ -39,7 +40,7 @@ def run_clip(job: tuple[str, int]) -> dict:
     scenario, seed = job
     spec = get_scenario(scenario, seed=seed)
     clip = load_clip(spec, progress=False)
-    don = make_linked_don(spec, clip.fps)
+    don = build_estimator("don", clip_context(spec, clip))
     angles = np.array([e.angles for e in don.run(clip.frames)])
     warm = round(WARM_UP_S * clip.fps)
     settled = [round(angle_rmse_deg(angles[warm:, j], clip.truth.angles[warm:, j]), 3)

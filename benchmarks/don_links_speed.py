@@ -26,7 +26,8 @@ from imimic_gym.bench import machine
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
 from imimic_gym.estimators.don import DON
-from imimic_gym.evaluation import make_linked_don
+from imimic_gym.estimators.registry import build_estimator
+from imimic_gym.evaluation import clip_context
 
 SCENARIOS = ("chain-2", "chain-3", "exp4-hand")
 
@@ -44,7 +45,7 @@ def main() -> None:
         estimators = {
             "don": DON(fps=clip.fps, reference_direction=spec.reference_direction,
                        joint_range=spec.joint_ranges[0]),
-            "linked": make_linked_don(spec, clip.fps),
+            "linked": build_estimator("don", clip_context(spec, clip)),
         }
         times: dict[str, list[float]] = {key: [] for key in estimators}
         for _ in range(args.repeats):

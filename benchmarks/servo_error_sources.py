@@ -33,7 +33,7 @@ from imimic_gym.bench import machine
 from imimic_gym.controllers import SCRIPTED_CONTROLLERS
 from imimic_gym.controllers.scripted import EstimateTarget
 from imimic_gym.rollout import run_episode
-from imimic_gym.suite import ESTIMATORS, FIRST_HELD_OUT_SEED
+from imimic_gym.suite import FIRST_HELD_OUT_SEED, estimator_wrapper
 from imimic_gym.wrappers import estimate_fields
 
 
@@ -84,7 +84,7 @@ def estimate_errors(scenario: str, seeds: list[int]) -> dict[str, float]:
     """DON's own errors (deg, deg/s), pooled over the seeds' frames from DON's first
     reading on (before it, DON reports a placeholder with trust 0 and every controller
     holds the start pose)."""
-    env = ESTIMATORS["don"](gym.make("ImitateVideo-v0", scenario=scenario,
+    env = estimator_wrapper("don")(gym.make("ImitateVideo-v0", scenario=scenario,
                                      control="velocity", clip_seeds=tuple(seeds)))
     fields = estimate_fields(1)
     parts: dict[str, list[np.ndarray]] = {k: [] for k in
@@ -116,7 +116,7 @@ def estimate_errors(scenario: str, seeds: list[int]) -> dict[str, float]:
 
 
 def tracking(scenario: str, estimator: str, name: str, seeds: list[int]) -> dict[str, Any]:
-    env = ESTIMATORS[estimator](gym.make("ImitateVideo-v0", scenario=scenario,
+    env = estimator_wrapper(estimator)(gym.make("ImitateVideo-v0", scenario=scenario,
                                          control="velocity" if "velocity" in name or
                                          name == "difference" else "position",
                                          clip_seeds=tuple(seeds)))

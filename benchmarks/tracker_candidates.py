@@ -25,14 +25,14 @@ from imimic_gym.bench import machine
 from imimic_gym.controllers import SCRIPTED_CONTROLLERS
 from imimic_gym.controllers.learned import LearnedController
 from imimic_gym.rollout import run_episode
-from imimic_gym.suite import ESTIMATORS, FIRST_HELD_OUT_SEED
+from imimic_gym.suite import FIRST_HELD_OUT_SEED, estimator_wrapper
 
 SCENARIOS = ("exp2-servo", "exp3-forearm-low")
 
 
 def score(scenario: str, control: str, build: Any, seeds: list[int]) -> dict[str, float]:
     """Mean RMSE (deg) and jerk (deg/s^3) over ``seeds`` of the controller ``build(env)``."""
-    env = ESTIMATORS["don"](gym.make("ImitateVideo-v0", scenario=scenario, control=control,
+    env = estimator_wrapper("don")(gym.make("ImitateVideo-v0", scenario=scenario, control=control,
                                      clip_seeds=tuple(seeds)))
     controller = build(env)
     runs = [run_episode(env, controller, seed=s, options={"clip_seed": s}).metrics()

@@ -9,16 +9,14 @@ from pathlib import Path
 
 import imimic_gym  # noqa: F401  (registers the env, sets headless GL)
 
-# What `imimic demo --estimator` offers (each is a `suite.ESTIMATORS` wrapper), as the demo
-# introduces it.
-DEMO_ESTIMATORS = {
-    "don": "DON (frame differences, no labels; with its appearance layer)",
-    "don-paper": "DON with the paper's layers alone (no appearance layer)",
-    "cnn": "CNN + refiner (shipped checkpoint)",
-    "mog2": "MOG2 background subtraction (baseline)",
-    "camshift": "CamShift colour tracking (baseline)",
-    "oracle": "oracle (the true angles)",
-}
+
+def _estimator_names(video_only: bool = False) -> tuple[str, ...]:
+    """The registered estimators (`estimators.registry`) for ``--estimator`` choices;
+    ``video_only`` leaves out those that read the truth rather than the video."""
+    from imimic_gym.estimators.registry import ESTIMATORS
+
+    return tuple(name for name, entry in ESTIMATORS.items()
+                 if not (video_only and entry.needs_truth))
 
 
 def _save_json(path: str | None, data: object) -> None:
@@ -72,13 +70,18 @@ def cmd_demo(args: argparse.Namespace) -> int:
               "loop's upper bound, not vision.")
         controller = OracleController(env)
     else:
-        from imimic_gym.suite import ESTIMATORS as SUITE_ESTIMATORS
+        from imimic_gym.estimators.registry import UnsupportedClipError, get_estimator
+        from imimic_gym.wrappers import EstimatorObservation
 
-        print(f"  estimator: {DEMO_ESTIMATORS[args.estimator]}; controller: PD on its angles")
-        env = SUITE_ESTIMATORS[args.estimator](env)
+        print(f"  estimator: {get_estimator(args.estimator).summary}; controller: PD on its "
+              "angles")
+        try:
+            env = EstimatorObservation.from_registry(env, args.estimator, keep_frame=False)
+        except UnsupportedClipError as error:
+            raise SystemExit(f"imimic demo: {error}") from error
         controller = PDController(env, EstimateTarget(env))
     trajectory = run_episode(env, controller, seed=args.seed, record=True)
-    fps = env.unwrapped.clip.fps
+    fps = float(env.metadata["render_fps"])
     env.close()
     write_video(out / "demo.mp4", trajectory.frames, fps)
     title = (f"{args.scenario}: human (solid) vs robot (dashed), "
@@ -137,9 +140,13 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
     if args.paper or args.controller:
         return _cmd_eval_suite(args)
-    if "oracle" in args.estimator:
-        raise SystemExit("imimic eval: the oracle estimator is the truth itself; score it "
-                         "with a controller (--controller ...) or use don, mog2, camshift")
+    from imimic_gym.estimators.registry import get_estimator
+
+    truth = [name for name in args.estimator if get_estimator(name).needs_truth]
+    if truth:
+        raise SystemExit(f"imimic eval: the {truth[0]} estimator is the truth itself; score "
+                         "it with a controller (--controller ...) or use an estimator that "
+                         "reads the video")
     results = []
     for scenario in args.scenario:
         for estimator in args.estimator:
@@ -147,8 +154,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
                 result = evaluate_estimator(scenario, estimator, episodes=args.episodes,
                                             first_seed=args.first_seed,
                                             modality=args.modality)
-            except ValueError as error:  # e.g. a several-link scenario
-                raise SystemExit(f"imimic eval: {error}") from error
+            except ValueError as error:  # e.g. a several-link scenario for a 1-link one
+                raise SystemExit(f"imimic eval: {scenario!r}: {error}") from error
             results.append(result)
             mean = result["mean"]
             occluded = ""
@@ -185,6 +192,7 @@ def _suite_table(results: list[dict]) -> str:
 def _cmd_eval_suite(args: argparse.Namespace) -> int:
     """`imimic eval --controller ...` or `--paper`: the tracking suite."""
     from imimic_gym.clips.scenarios import get_scenario
+    from imimic_gym.estimators.registry import get_estimator
     from imimic_gym.paper import paper_configs, paper_table
     from imimic_gym.plots import plot_tracking
     from imimic_gym.suite import RunConfig, run_suite
@@ -195,11 +203,11 @@ def _cmd_eval_suite(args: argparse.Namespace) -> int:
     else:
         configs, skipped = [], []
         for scenario in args.scenario:
-            one_link = get_scenario(scenario).n_links == 1
+            n_links = get_scenario(scenario).n_links
             for controller in args.controller:
                 for estimator in args.estimator:
-                    if not one_link and (estimator not in ("oracle", "don")
-                                         or controller == "learned"):
+                    if (n_links not in get_estimator(estimator).links
+                            or (n_links != 1 and controller == "learned")):
                         skipped.append(f"{scenario}/{estimator}/{controller}")
                         continue
                     configs.append(RunConfig(scenario, estimator, controller, seeds,
@@ -207,9 +215,8 @@ def _cmd_eval_suite(args: argparse.Namespace) -> int:
                     if controller == "oracle":
                         break  # the oracle controller ignores the estimate: one run is enough
         if skipped:
-            print("skipped (the estimators other than DON and the learned policy follow one "
-                  "moving link so far; several-link scenarios run DON and the oracle): "
-                  + ", ".join(skipped))
+            print("skipped (an estimator that does not follow this many links, or the "
+                  "learned policy, which follows one): " + ", ".join(skipped))
     out = Path(args.out)
     (out / "plots").mkdir(parents=True, exist_ok=True)
 
@@ -300,12 +307,15 @@ def _bench_don(args: argparse.Namespace, result: dict[str, object]) -> int:
 def cmd_mimic(args: argparse.Namespace) -> int:
     """`imimic mimic`; footage that cannot be used is reported in one line (exit code 2)."""
     from imimic_gym.clips.video import VideoFormatError, VideoOpenError
+    from imimic_gym.estimators.registry import get_estimator
 
-    if args.estimator != "don" and args.pivot:
-        raise SystemExit("imimic mimic: --pivot is DON's; the CNN finds the shoulder, elbow "
-                         "and wrist itself")
-    if args.estimator == "don" and not 1 <= args.links <= 3:
-        raise SystemExit(f"imimic mimic: DON follows 1 to 3 links; --links {args.links}")
+    entry = get_estimator(args.estimator)
+    if args.pivot and "pivot" not in entry.params:
+        raise SystemExit(f"imimic mimic: --pivot is DON's; {args.estimator} finds the joints "
+                         "itself")
+    if args.links not in entry.links:
+        raise SystemExit(f"imimic mimic: {args.estimator} follows {entry.links_text}; "
+                         f"--links {args.links}")
     try:
         return _mimic(args)
     except (VideoOpenError, VideoFormatError) as err:
@@ -358,8 +368,6 @@ def _mimic(args: argparse.Namespace) -> int:
 
 
 def _add_mimic(sub: argparse._SubParsersAction) -> None:
-    from imimic_gym.mimic import ESTIMATOR_WRAPPERS
-
     mimic = sub.add_parser(
         "mimic", help="estimator + controller on a video file or live camera; drives the robot",
         description="Run an estimator and a PD controller on real footage, frame by frame, "
@@ -379,7 +387,8 @@ def _add_mimic(sub: argparse._SubParsersAction) -> None:
     where.add_argument("--camera", default=None, metavar="INDEX|URL",
                        help="a live camera index (0) or stream URL; shows frames/s and "
                             "latency, stops on Ctrl-C or when the camera disappears")
-    mimic.add_argument("--estimator", default="don", choices=sorted(ESTIMATOR_WRAPPERS),
+    mimic.add_argument("--estimator", default="don",
+                       choices=_estimator_names(video_only=True),
                        help="the vision estimator (default: %(default)s)")
     mimic.add_argument("--links", type=int, default=1,
                        help="moving links to copy, a chain (default: %(default)s; DON "
@@ -442,7 +451,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--seed", type=int, default=0, help="clip seed (default: %(default)s)")
     demo.add_argument("--control", default="position", choices=("position", "velocity", "torque"),
                       help="robot actuation (default: %(default)s, the paper's servo)")
-    demo.add_argument("--estimator", default=None, choices=tuple(DEMO_ESTIMATORS),
+    demo.add_argument("--estimator", default=None, choices=_estimator_names(),
                       help="where the robot's targets come from: DON on the video (1 to 3 "
                            "links), the CNN + refiner (a person's arm, 1 or 2 links), the "
                            "MOG2 or CamShift baseline (1 link), or the true angles (oracle: "
@@ -483,10 +492,9 @@ def build_parser() -> argparse.ArgumentParser:
                           help="one or more scenarios (default: %(default)s; DON follows 1 to 3 "
                                "links, the other estimators one)")
     from imimic_gym.suite import CONTROLLERS
-    from imimic_gym.suite import ESTIMATORS as SUITE_ESTIMATORS
 
     evaluate.add_argument("--estimator", nargs="+", default=["don"],
-                          choices=tuple(SUITE_ESTIMATORS),
+                          choices=_estimator_names(),
                           help="default: %(default)s; oracle (the true angles) only with "
                                "--controller")
     evaluate.add_argument("--episodes", type=int, default=3, help="clips per scenario")

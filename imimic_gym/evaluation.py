@@ -1,54 +1,40 @@
-"""Estimator-only evaluation over held-out clips: `imimic eval` (first version)."""
+"""Estimator-only evaluation over clips with truth: `imimic eval` without a controller.
+
+Any registered estimator (`estimators.registry`) that reads pixels runs over whole clips,
+without an env, from the same `EstimatorContext` an env would publish (no robot model:
+torques are not scored here).
+"""
 
 from __future__ import annotations
 
-import functools
 from typing import Any
 
 import numpy as np
 
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import ClipSpec, get_scenario
+from imimic_gym.clips.types import Clip
 from imimic_gym.envs.imitate_video import MODALITIES, depth_to_frame
-from imimic_gym.estimators.don import gaussian_for
-from imimic_gym.estimators.don_links import LinkedDON
+from imimic_gym.estimators.registry import build_estimator, get_estimator
+from imimic_gym.estimators.types import EstimatorContext
 from imimic_gym.metrics import OCCLUDED, angle_rmse_deg, lag_frames
 
-__all__ = ["ESTIMATORS", "WARM_UP_S", "evaluate_estimator", "make_estimator", "make_linked_don"]
+__all__ = ["WARM_UP_S", "clip_context", "evaluate_estimator"]
 
-# "don-paper" is DON with the paper's layers alone (``appearance=False``).
-ESTIMATORS = ("don", "don-paper", "mog2", "camshift", "cnn")
 WARM_UP_S = 0.5  # frame-differencing estimators see nothing until the arm has moved
 PREDICTION_ON = 0.3  # the trust threshold used for "with the prediction layer"
+PREDICTING = ("don", "don-paper")  # estimators with a prediction layer to score
 
 
-def make_estimator(name: str, clip_meta: dict[str, Any], fps: float,
-                   joint_range: tuple[float, float], **params: Any):
-    """An estimator set up for a clip: its fps, reference direction and joint range
-    (the CNN takes the number of links instead: it needs no range)."""
-    from imimic_gym.estimators.baselines import CamShiftEstimator, MOG2Estimator
-    from imimic_gym.estimators.don import DON
-
-    if name == "cnn":
-        from imimic_gym.estimators.cnn import CNNEstimator
-
-        return CNNEstimator(n_links=int(clip_meta["n_links"]), fps=fps,
-                            reference_direction=float(clip_meta["reference_direction"]),
-                            **params)
-
-    classes = {"don": DON, "don-paper": functools.partial(DON, appearance=False),
-               "mog2": MOG2Estimator, "camshift": CamShiftEstimator}
-    if name not in classes:
-        raise ValueError(f"unknown estimator {name!r}; expected one of {ESTIMATORS}")
-    return classes[name](fps=fps, reference_direction=float(clip_meta["reference_direction"]),
-                         joint_range=joint_range, **params)
-
-
-def make_linked_don(spec: ClipSpec, fps: float, **params: Any) -> LinkedDON:
-    """DON for a scenario with several moving links (`LinkedDON`), set up from its spec:
-    the tree of links, the joint ranges and the reference direction."""
-    return LinkedDON(spec.link_parents, spec.joint_ranges, fps=fps,
-                     reference_direction=spec.reference_direction, **params)
+def clip_context(spec: ClipSpec, clip: Clip, modality: str = "rgb") -> EstimatorContext:
+    """The context of a scenario's clip as `ImitateVideoEnv.estimator_context` gives it,
+    less the robot model (no torques) and the truth (the oracle is not scored here)."""
+    return EstimatorContext(
+        fps=float(clip.fps), link_parents=tuple(spec.link_parents),
+        joint_ranges=tuple((float(lo), float(hi)) for lo, hi in spec.joint_ranges),
+        reference_direction=float(clip.meta.get("reference_direction",
+                                                spec.reference_direction)),
+        modality=modality, demonstrator=spec.demonstrator)
 
 
 def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
@@ -69,24 +55,17 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
     if modality not in MODALITIES:
         raise ValueError(f"unknown modality {modality!r}; expected one of {MODALITIES}")
     spec = get_scenario(scenario)
-    if spec.n_links != 1 and estimator not in ("don", "don-paper"):
-        raise ValueError(f"the estimators other than DON follow one moving link; "
-                         f"{scenario!r} has {spec.n_links}")
-    # DON smooths depth video, not colour, as `DONObservation` does.
-    smoothing = ({"gaussian": gaussian_for(modality)}
-                 if estimator in ("don", "don-paper") else {})
+    if get_estimator(estimator).needs_truth:
+        raise ValueError(f"estimator {estimator!r} is the truth itself: score it with a "
+                         "controller")
     rows = []
     for seed in range(first_seed, first_seed + episodes):
         clip = load_clip(spec.replace(seed=seed), progress=False)
         frames = clip.frames if modality == "rgb" else depth_to_frame(clip.depth)
         truth = clip.truth.angles
         warm = round(WARM_UP_S * clip.fps)
-        if spec.n_links == 1:
-            est = make_estimator(estimator, clip.meta, clip.fps, spec.joint_ranges[0],
-                                 **smoothing)
-        else:
-            est = make_linked_don(spec, clip.fps, appearance=estimator == "don")
-        estimates = est.run(frames)
+        context = clip_context(spec, clip, modality)
+        estimates = run_estimator(build_estimator(estimator, context), frames)
         angles = np.array([e.angles for e in estimates])
         row: dict[str, Any] = {
             "seed": seed,
@@ -105,9 +84,9 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
             trust = np.array([e.trust for e in estimates])
             row["mean_trust_occluded"] = float(trust[occluded].mean())
             row["mean_trust_clear"] = float(trust[~occluded].mean())
-        if occluded.any() and estimator in ("don", "don-paper"):
-            on = make_estimator(estimator, clip.meta, clip.fps, spec.joint_ranges[0],
-                                trust_threshold=PREDICTION_ON, **smoothing).run(frames)
+        if occluded.any() and estimator in PREDICTING and spec.n_links == 1:
+            on = run_estimator(build_estimator(estimator, context,
+                                               trust_threshold=PREDICTION_ON), frames)
             with_prediction = np.array([e.angles for e in on])
             row["rmse_occluded_deg_prediction_off"] = angle_rmse_deg(angles[occluded],
                                                                      truth[occluded])
@@ -120,3 +99,9 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
     return {"scenario": scenario, "estimator": estimator, "modality": modality,
             "episodes": episodes,
             "first_seed": first_seed, "warm_up_s": WARM_UP_S, "mean": summary, "rows": rows}
+
+
+def run_estimator(estimator: Any, frames: Any) -> list:
+    """Every estimate of ``estimator`` over ``frames`` (T, H, W, 3) uint8, from a reset."""
+    estimator.reset()
+    return [estimator.update(frame) for frame in frames]

@@ -37,37 +37,11 @@ import gymnasium as gym
 import numpy as np
 
 from imimic_gym.clips.video import StreamEndedError, require_frames, write_video
+from imimic_gym.estimators.registry import get_estimator
 from imimic_gym.rollout import Trajectory
+from imimic_gym.wrappers import EstimatorObservation
 
-__all__ = ["ESTIMATOR_WRAPPERS", "MimicLog", "mimic_frames", "run_mimic"]
-
-
-def _don(env: gym.Env, params: dict[str, Any]) -> gym.Env:
-    from imimic_gym.wrappers import DONObservation
-
-    return DONObservation(env, keep_frame=False, **params)
-
-
-def _don_frames_needed(params: dict[str, Any]) -> int:
-    return int(params.get("window", 10)) + 1
-
-
-def _cnn(env: gym.Env, params: dict[str, Any]) -> gym.Env:
-    from imimic_gym.wrappers import CNNObservation
-
-    if "pivot" in params:
-        raise ValueError("the CNN finds the shoulder, elbow and wrist itself: --pivot is "
-                         "for DON")
-    return CNNObservation(env, keep_frame=False, **params)
-
-
-# Estimator name -> (wrap the env so obs["estimate"] holds its output, frames it needs
-# before its first real estimate). Another estimator is one more entry.
-ESTIMATOR_WRAPPERS: dict[str, tuple[Callable[[gym.Env, dict[str, Any]], gym.Env],
-                                    Callable[[dict[str, Any]], int]]] = {
-    "don": (_don, _don_frames_needed),
-    "cnn": (_cnn, lambda params: 1),  # reads each frame alone
-}
+__all__ = ["MimicLog", "mimic_frames", "run_mimic"]
 
 
 @dataclass
@@ -113,7 +87,7 @@ def mimic_frames(env: gym.Env, controller: Any, log: MimicLog, rows: Any = None,
     ``realtime`` waits until frame i's time (i / fps after the first) before reading it.
     """
     inner = env.unwrapped
-    n = inner.arm.n_links
+    n = int(env.action_space.shape[0])
 
     def record(obs: dict[str, Any], info: dict[str, Any], started: float) -> np.ndarray:
         action = controller(obs)
@@ -186,21 +160,20 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
     from imimic_gym.controllers import EstimateTarget, PDController
     from imimic_gym.plots import plot_tracking
 
-    if estimator not in ESTIMATOR_WRAPPERS:
-        raise ValueError(f"unknown estimator {estimator!r}; expected one of "
-                         f"{sorted(ESTIMATOR_WRAPPERS)}")
+    entry = get_estimator(estimator)
     params = dict(estimator_params or {})
-    wrap, frames_needed = ESTIMATOR_WRAPPERS[estimator]
-    needed = frames_needed(params)
+    needed = entry.frames_needed(params)
     source = str(clip.meta.get("path", "the clip"))
     live = clip.meta.get("source") == "camera"
     known_length = getattr(clip.frames, "length_known", True)
-    why = f"{estimator.upper()} (window {needed - 1})"
+    why = (f"{estimator.upper()} (window {needed - 1})" if needed > 1
+           else f"{estimator.upper()}")
     try:
         if not live and known_length:
             require_frames(len(clip), needed, source, why)
-        env = wrap(gym.make("ImitateVideo-v0", clip=clip, control=control,
-                            render_mode="rgb_array"), params)
+        env = EstimatorObservation.from_registry(
+            gym.make("ImitateVideo-v0", clip=clip, control=control, render_mode="rgb_array"),
+            estimator, keep_frame=False, **params)
     except BaseException:  # release the camera or file before the error goes up
         if hasattr(clip.frames, "close"):
             clip.frames.close()
@@ -225,7 +198,7 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
     started = time.perf_counter()
     with (out / "mimic.csv").open("w", newline="", buffering=1) as table:
         rows = csv.writer(table)
-        rows.writerow(csv_header(env.unwrapped.arm.n_links))
+        rows.writerow(csv_header(int(env.action_space.shape[0])))
         try:
             write_video(out / "mimic.mp4",
                         mimic_frames(env, controller, log, rows, servo, show, realtime),

@@ -9,6 +9,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from imimic_gym.estimators.types import estimate_fields
 from imimic_gym.metrics import (
     angle_rmse_deg,
     jerk_rms,
@@ -71,8 +72,6 @@ def run_episode(
     index, target, robot, reward, occlusion, frames, trust = [], [], [], [], [], [], []
     trust_at = None
     if "estimate" in obs:
-        from imimic_gym.wrappers.estimator import estimate_fields
-
         trust_at = estimate_fields(len(obs["qpos"]))["trust"].start
 
     def log(obs: dict[str, Any], info: dict[str, Any], r: float) -> None:
@@ -93,7 +92,7 @@ def run_episode(
         log(obs, info, float(r))
         done = terminated or truncated
     return Trajectory(
-        time=np.asarray(index) / float(env.unwrapped.clip.fps),
+        time=np.asarray(index) / float(env.metadata["render_fps"]),
         target=np.asarray(target),
         robot=np.asarray(robot),
         reward=np.asarray(reward),

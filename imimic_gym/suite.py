@@ -3,11 +3,13 @@
 Every run is a plain Gymnasium loop, ``obs, info = env.reset(seed=s)`` then
 ``env.step(controller(obs))`` to the clip's end (`rollout.run_episode`), or the same loop
 over ``gym.make_vec`` sub-envs when ``num_envs > 1``; both give the same numbers. The
-estimator and controller sets are registries: adding one is one line.
+estimators are those of `estimators.registry`; the controllers are a registry here:
+adding one is one line.
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -18,11 +20,13 @@ from tqdm import tqdm
 
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
+from imimic_gym.estimators.registry import ESTIMATORS
+from imimic_gym.estimators.types import estimate_fields
 from imimic_gym.rollout import Trajectory, run_episode
 
 __all__ = [
-    "CONTROLLERS", "ESTIMATORS", "FIRST_HELD_OUT_SEED", "METRICS", "RunConfig", "run_config",
-    "run_suite", "summarise",
+    "CONTROLLERS", "FIRST_HELD_OUT_SEED", "METRICS", "RunConfig", "estimator_wrapper",
+    "run_config", "run_suite", "summarise",
 ]
 
 FIRST_HELD_OUT_SEED = 1000  # training and tests use clip seeds below this
@@ -30,49 +34,16 @@ METRICS = ("rmse_deg", "max_error_deg", "lag_frames", "jerk_deg_s3", "recovery_s
            "mean_trust")
 
 
-def _vision(name: str) -> Callable[[gym.Env], gym.Env]:
-    """An estimator wrapper for ``evaluation.make_estimator``'s estimator ``name``."""
-
-    def wrap(env: gym.Env) -> gym.Env:
-        from imimic_gym.evaluation import make_estimator
-        from imimic_gym.wrappers import EstimatorObservation
-
-        inner = env.unwrapped
-        if inner.arm.n_links != 1 and name in ("don", "don-paper"):
-            from imimic_gym.wrappers import DONObservation
-
-            return DONObservation(env, keep_frame=False, appearance=name == "don")
-        if inner.arm.n_links != 1:
-            raise ValueError(f"estimator {name!r} follows one moving link so far; this "
-                             f"scenario has {inner.arm.n_links}")
-        estimator = make_estimator(name, inner.clip.meta, float(inner.clip.fps),
-                                   tuple(inner.arm.joint_ranges[0]))
-        return EstimatorObservation(env, estimator, keep_frame=False)
-
-    return wrap
+def estimator_wrapper(name: str) -> Callable[[gym.Env], gym.Env]:
+    """A picklable wrapper factory (``gym.make_vec(wrappers=[...])``) that adds the
+    registered estimator ``name``'s ``obs["estimate"]`` and drops the frame."""
+    return functools.partial(_wrap, name=name)
 
 
-def _cnn(env: gym.Env) -> gym.Env:
-    from imimic_gym.wrappers import CNNObservation
+def _wrap(env: gym.Env, name: str) -> gym.Env:
+    from imimic_gym.wrappers import EstimatorObservation
 
-    return CNNObservation(env, keep_frame=False)
-
-
-def _truth(env: gym.Env) -> gym.Env:
-    from imimic_gym.wrappers import TruthObservation
-
-    return TruthObservation(env, keep_frame=False)
-
-
-# Estimator name -> wrapper that adds obs["estimate"] (and drops the frame).
-ESTIMATORS: dict[str, Callable[[gym.Env], gym.Env]] = {
-    "oracle": _truth,
-    "don": _vision("don"),
-    "don-paper": _vision("don-paper"),
-    "mog2": _vision("mog2"),
-    "camshift": _vision("camshift"),
-    "cnn": _cnn,
-}
+    return EstimatorObservation.from_registry(env, name, keep_frame=False)
 
 
 def _oracle(env: gym.Env):
@@ -142,7 +113,7 @@ class RunConfig:
         return kwargs
 
     def make_env(self) -> gym.Env:
-        return ESTIMATORS[self.estimator](gym.make("ImitateVideo-v0", **self.env_kwargs()))
+        return _wrap(gym.make("ImitateVideo-v0", **self.env_kwargs()), self.estimator)
 
 
 def run_config(config: RunConfig, num_envs: int = 1) -> list[Trajectory]:
@@ -171,11 +142,12 @@ def _run_vector(config: RunConfig, num_envs: int) -> list[Trajectory]:
             load_clip(spec.replace(seed=seed))
     vec = gym.make_vec("ImitateVideo-v0", num_envs=num_envs,
                        vectorization_mode="sync" if sync else "async",
-                       wrappers=[ESTIMATORS[config.estimator]], **config.env_kwargs())
+                       wrappers=[estimator_wrapper(config.estimator)],
+                       **config.env_kwargs())
     factory = CONTROLLERS[config.controller][1]
     template = None if sync else config.make_env()
     controllers = [factory(vec.envs[i] if sync else template) for i in range(num_envs)]
-    fps = float((vec.envs[0] if sync else template).unwrapped.clip.fps)
+    fps = float((vec.envs[0] if sync else template).metadata["render_fps"])
     out: list[Trajectory] = []
     try:
         for start in range(0, len(config.seeds), num_envs):
@@ -199,8 +171,6 @@ def _vector_episode(vec: gym.vector.VectorEnv, controllers: list, seeds: list[in
     n = len(seeds)
     logs: list[dict[str, list]] = [{"t": [], "target": [], "robot": [], "reward": [],
                                     "occlusion": [], "trust": []} for _ in range(n)]
-    from imimic_gym.wrappers import estimate_fields
-
     trust_at = estimate_fields(obs["qpos"].shape[1])["trust"].start
 
     def log(obs: dict[str, np.ndarray], info: dict[str, Any], reward: np.ndarray) -> None:

@@ -47,11 +47,13 @@ def test_demo_runs_don_on_two_links(tmp_path) -> None:
 
 
 
-def test_demo_offers_every_suite_estimator(tmp_path) -> None:
-    from imimic_gym.cli import DEMO_ESTIMATORS
-    from imimic_gym.suite import ESTIMATORS
+def test_demo_offers_every_registered_estimator(tmp_path, capsys) -> None:
+    from imimic_gym.estimators.registry import ESTIMATORS
 
-    assert set(DEMO_ESTIMATORS) == set(ESTIMATORS)
+    with pytest.raises(SystemExit):
+        main(["demo", "--help"])
+    offered = capsys.readouterr().out.split("--estimator {")[1].split("}")[0].split(",")
+    assert set(offered) == set(ESTIMATORS)
     assert main(["demo", "--estimator", "mog2", "--out", str(tmp_path), "--frames", "90"]) == 0
     metrics = json.loads((tmp_path / "metrics.json").read_text())
     assert metrics["estimator"] == "mog2" and metrics["controller"] == "pd"

@@ -47,7 +47,7 @@ def test_eval_refuses_an_unknown_modality() -> None:
 
 
 def test_eval_refuses_baselines_on_multi_link_scenarios() -> None:
-    with pytest.raises(ValueError, match="follow one moving link; 'chain-2' has 2"):
+    with pytest.raises(ValueError, match="follows one moving link; this clip has 2"):
         evaluate_estimator("chain-2", "camshift", episodes=1)
 
 
@@ -90,12 +90,14 @@ def test_don_paper_is_don_without_its_appearance_layer() -> None:
 def test_don_paper_on_two_links_is_linked_don_without_its_appearance_layer() -> None:
     from imimic_gym.clips.cache import load_clip
     from imimic_gym.clips.scenarios import get_scenario
-    from imimic_gym.evaluation import make_linked_don
+    from imimic_gym.estimators.don_links import LinkedDON
     from imimic_gym.metrics import angle_rmse_deg
 
     spec = get_scenario("chain-2", seed=1000)
     clip = load_clip(spec, progress=False)
-    paper = make_linked_don(spec, clip.fps, appearance=False).run(clip.frames)
+    paper = LinkedDON(spec.link_parents, spec.joint_ranges, fps=clip.fps,
+                      reference_direction=spec.reference_direction,
+                      appearance=False).run(clip.frames)
     expected = angle_rmse_deg(np.array([e.angles for e in paper]), clip.truth.angles)
     scores = {name: evaluate_estimator("chain-2", name, episodes=1)["rows"][0]
               for name in ("don", "don-paper")}

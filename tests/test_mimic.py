@@ -71,7 +71,7 @@ def test_a_missing_video_is_one_line_from_the_command(tmp_path, capsys) -> None:
 
 
 def test_more_links_than_don_follows_is_refused() -> None:
-    with pytest.raises(SystemExit, match="DON follows 1 to 3 links; --links 4"):
+    with pytest.raises(SystemExit, match="don follows 1 to 3 moving links; --links 4"):
         main(["mimic", "--video", "x.mp4", "--links", "4"])
 
 

@@ -7,7 +7,8 @@ import sys
 import pytest
 
 from imimic_gym.cli import main
-from imimic_gym.suite import CONTROLLERS, ESTIMATORS, METRICS, RunConfig, run_config, summarise
+from imimic_gym.estimators.registry import ESTIMATORS
+from imimic_gym.suite import CONTROLLERS, METRICS, RunConfig, run_config, summarise
 
 TINY = ("--episodes", "1", "--first-seed", "7", "--frames", "40")
 
@@ -75,7 +76,8 @@ def test_registries_refuse_unknown_names() -> None:
 
 
 def test_estimator_only_eval_refuses_baselines_on_several_links_by_name() -> None:
-    with pytest.raises(SystemExit, match="follow one moving link; 'chain-2' has 2"):
+    message = "'chain-2': estimator 'mog2' follows one moving link; this clip has 2"
+    with pytest.raises(SystemExit, match=message):
         main(["eval", "--scenario", "chain-2", "--estimator", "mog2", "--episodes", "1"])
 
 

@@ -26,6 +26,7 @@ import numpy as np
 from gymnasium import spaces
 
 from imimic_gym.controllers.scripted import SCRIPTED_CONTROLLERS
+from imimic_gym.estimators.types import estimate_fields
 from imimic_gym.metrics import wrap_angle
 
 __all__ = ["DEFAULT_CHECKPOINT", "LearnedController", "ResidualTracking", "TrackerFeatures",
@@ -68,8 +69,6 @@ class TrackerFeatures:
 
     def __init__(self, env: gym.Env, history: int = 0, rate_history: int = 0,
                  version: int = FEATURES_VERSION) -> None:
-        from imimic_gym.wrappers.estimator import estimate_fields
-
         if version not in KNOWN_FEATURES_VERSIONS:
             raise ValueError(f"features version must be one of {KNOWN_FEATURES_VERSIONS}, "
                              f"got {version!r}")

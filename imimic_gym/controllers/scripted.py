@@ -15,6 +15,7 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 
+from imimic_gym.estimators.types import estimate_fields
 from imimic_gym.metrics import wrap_angle
 
 __all__ = [
@@ -64,8 +65,6 @@ class EstimateTarget:
     """
 
     def __init__(self, env: gym.Env, lead_frames: float = 1.0) -> None:
-        from imimic_gym.wrappers.estimator import estimate_fields
-
         inner = env.unwrapped
         self.fields = estimate_fields(inner.arm.n_links)
         self.lead_s = lead_frames / float(inner.clip.fps)

@@ -18,6 +18,7 @@ from imimic_gym.arms import CONTROL_MODES, MAX_LINKS, ArmSpec, build_arm_model
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import ClipSpec, get_scenario
 from imimic_gym.clips.types import Clip
+from imimic_gym.estimators.types import Estimate, EstimatorContext
 from imimic_gym.metrics import wrap_angle
 from imimic_gym.render import OffscreenRenderer
 
@@ -277,6 +278,30 @@ class ImitateVideoEnv(gym.Env, EzPickle):
                              "truth: no target angles (load it with annotations)")
         i = min(max(frame_index, 0), len(self.clip) - 1)
         return self.clip.truth.angles[i].copy()
+
+    def estimator_context(self) -> EstimatorContext:
+        """What an estimator may know about the current clip and this robot: the seam
+        between env and estimators (`estimators.registry`). Wrappers reach it through
+        ``env.get_wrapper_attr("estimator_context")()``."""
+        return EstimatorContext(
+            fps=float(self.clip.fps),
+            link_parents=tuple(self.arm.link_parents),
+            joint_ranges=tuple((float(lo), float(hi)) for lo, hi in self.arm.joint_ranges),
+            reference_direction=float(self.clip.meta.get("reference_direction",
+                                                         self.arm.reference_direction)),
+            modality=self.modality,
+            demonstrator=str(self.clip.meta.get("demonstrator", "human")),
+            robot=self.model,
+            truth=self._true_estimate if self.clip.truth is not None else None,
+        )
+
+    def _true_estimate(self) -> Estimate:
+        """The truth of the frame shown now as an `Estimate` (trust 1, torque 0)."""
+        truth, i = self.clip.truth, self.frame_index or 0
+        assert truth is not None
+        return Estimate(angles=truth.angles[i], omega=truth.angular_velocity[i],
+                        alpha=truth.angular_acceleration[i],
+                        torque=np.zeros(truth.angles.shape[1]), trust=1.0)
 
     def _obs(self) -> dict[str, np.ndarray]:
         return {

@@ -5,9 +5,10 @@ from imimic_gym.wrappers.estimator import (
     TruthObservation,
     draw_estimate,
     estimate_fields,
+    estimator_context,
 )
 
 __all__ = [
     "CNNObservation", "DONObservation", "EstimatorObservation", "TruthObservation",
-    "draw_estimate", "estimate_fields",
+    "draw_estimate", "estimate_fields", "estimator_context",
 ]

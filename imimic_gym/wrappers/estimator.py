@@ -1,8 +1,9 @@
 """Estimator observation wrappers: add ``obs["estimate"]`` computed from ``obs["frame"]``.
 
-The estimator is an object (any `Estimator`: DON, later the CNN and the baselines); the
-wrapper only feeds it frames, so the env knows nothing about estimators and estimators
-know nothing about the env.
+The estimator is an object (any `Estimator`); the wrapper only feeds it frames, so the
+env knows nothing about estimators and estimators know nothing about the env. Estimators
+by name come from the registry (`estimators.registry`), set up from the context the env
+publishes (`ImitateVideoEnv.estimator_context`): `EstimatorObservation.from_registry`.
 """
 
 from __future__ import annotations
@@ -13,25 +14,25 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from imimic_gym.estimators.don import DON, gaussian_for
-from imimic_gym.estimators.don_links import LinkedDON
-from imimic_gym.estimators.types import Estimate, Estimator
+from imimic_gym.estimators.registry import build_estimator
+from imimic_gym.estimators.types import (
+    ESTIMATE_BOUNDS,
+    Estimate,
+    Estimator,
+    EstimatorContext,
+    estimate_fields,
+)
 
 __all__ = [
     "CNNObservation", "DONObservation", "EstimatorObservation", "TruthObservation",
-    "draw_estimate", "estimate_fields",
+    "draw_estimate", "estimate_fields", "estimator_context",
 ]
 
-# Bounds of the estimate vector, so the space is finite (checkers warn on infinite ones)
-# and a wild estimate cannot leave it: angles rad, omega rad/s, alpha rad/s^2, torque N m.
-BOUNDS = {"angles": np.pi, "omega": 100.0, "alpha": 10_000.0, "torque": 1_000.0}
 
-
-def estimate_fields(n: int) -> dict[str, slice]:
-    """Where each field of the Estimate sits in ``obs["estimate"]`` for ``n`` joints."""
-    fields = {name: slice(i * n, (i + 1) * n) for i, name in enumerate(BOUNDS)}
-    fields["trust"], fields["predicted"] = slice(4 * n, 4 * n + 1), slice(4 * n + 1, 4 * n + 2)
-    return fields
+def estimator_context(env: gym.Env) -> EstimatorContext:
+    """The `EstimatorContext` that ``env`` (an ImitateVideo env, wrapped or not)
+    publishes for its current clip."""
+    return env.get_wrapper_attr("estimator_context")()
 
 
 def draw_estimate(picture: np.ndarray, estimate: Estimate,
@@ -98,7 +99,8 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
         gym.ObservationWrapper.__init__(self, env)
         self.estimator, self.keep_frame = estimator, keep_frame
         self.n = int(env.action_space.shape[0])
-        low = np.concatenate([np.full(self.n, -b) for b in BOUNDS.values()] + [[0.0, 0.0]])
+        low = np.concatenate([np.full(self.n, -b) for b in ESTIMATE_BOUNDS.values()]
+                             + [[0.0, 0.0]])
         self._low, self._high = low.astype(np.float32), (-low).astype(np.float32)
         self._high[-2:] = 1.0
         subspaces = dict(space.spaces)
@@ -107,6 +109,15 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
         subspaces["estimate"] = spaces.Box(self._low, self._high, dtype=np.float32)
         self.observation_space = spaces.Dict(subspaces)
         self.last_estimate: Estimate | None = None
+        self._parents = estimator_context(env).link_parents
+
+    @classmethod
+    def from_registry(cls, env: gym.Env, name: str, keep_frame: bool = True,
+                      **params: Any) -> EstimatorObservation:
+        """``env`` wrapped with the registered estimator ``name``, built from the env's
+        context with ``params``; `UnsupportedClipError` for a clip it cannot follow."""
+        estimator = build_estimator(name, estimator_context(env), **params)
+        return EstimatorObservation(env, estimator, keep_frame=keep_frame)
 
     def reset(self, **kwargs: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         self.estimator.reset()
@@ -119,8 +130,7 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
         picture = self.env.render()
         if picture is None or self.last_estimate is None:
             return picture
-        return draw_estimate(picture, self.last_estimate,
-                             self.env.unwrapped.arm.link_parents)
+        return draw_estimate(picture, self.last_estimate, self._parents)
 
     def observation(self, observation: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         self.last_estimate = self.estimator.update(observation["frame"])
@@ -131,34 +141,23 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
 
 
 class DONObservation(EstimatorObservation):
-    """`EstimatorObservation` with DON, set up from the env: its frame rate, the clip's
-    reference direction, the joint's range, and the robot's model for torques.
-    ``don_params`` go to `DON` and override these. An arm with several links gets DON for
-    a tree of links (`LinkedDON`), with the arm's tree and joint ranges."""
+    """`EstimatorObservation` with DON (registry name ``"don"``), set up from the env: its
+    frame rate, the clip's reference direction, the joint's range, the modality's
+    smoothing and the robot's model for torques. ``don_params`` go to `DON` and override
+    these. An arm with several links gets DON for a tree of links (`LinkedDON`)."""
 
     def __init__(self, env: gym.Env, keep_frame: bool = True, **don_params: Any) -> None:
         gym.utils.RecordConstructorArgs.__init__(self, keep_frame=keep_frame, **don_params)
-        inner = env.unwrapped
-        params = {
-            "fps": float(inner.clip.fps),
-            "reference_direction": float(inner.clip.meta.get("reference_direction", 0.0)),
-            "robot": inner.model,
-        }
-        if inner.arm.n_links == 1:
-            params["gaussian"] = gaussian_for(inner.modality)
-            estimator = DON(**{"joint_range": tuple(inner.arm.joint_ranges[0]), **params,
-                               **don_params})
-        else:
-            estimator = LinkedDON(inner.arm.link_parents, inner.arm.joint_ranges,
-                                  **{**params, **don_params})
+        estimator = build_estimator("don", estimator_context(env), **don_params)
         super().__init__(env, estimator, keep_frame=keep_frame)
 
 
 class CNNObservation(EstimatorObservation):
-    """`EstimatorObservation` with the CNN + refiner (`estimators/cnn.py`), set up from the
-    env: its frame rate, the clip's reference direction, the number of links, and the
-    robot's model for torques. Keypoints become joint angles, and the shared path
-    estimator gives angular velocity, acceleration and torque.
+    """`EstimatorObservation` with the CNN + refiner (registry name ``"cnn"``,
+    `estimators/cnn.py`), set up from the env: its frame rate, the clip's reference
+    direction, the number of links, and the robot's model for torques. Keypoints become
+    joint angles, and the shared path estimator gives angular velocity, acceleration and
+    torque.
 
     Args:
         env: an ImitateVideo env whose demonstrator is a person's arm with 1 or 2 links.
@@ -171,44 +170,16 @@ class CNNObservation(EstimatorObservation):
 
     def __init__(self, env: gym.Env, checkpoint: str | None = None, keep_frame: bool = True,
                  refine: bool = True) -> None:
-        from imimic_gym.estimators.cnn import CNNEstimator
-
         gym.utils.RecordConstructorArgs.__init__(self, checkpoint=checkpoint,
                                                  keep_frame=keep_frame, refine=refine)
-        inner = env.unwrapped
-        demonstrator = inner.clip.meta.get("demonstrator", "human")
-        if demonstrator != "human" or inner.arm.n_links not in (1, 2):
-            raise ValueError(
-                "the CNN finds a person's shoulder, elbow and wrist (1 or 2 links); this env "
-                f"shows a {demonstrator!r} demonstrator with {inner.arm.n_links} links"
-            )
-        estimator = CNNEstimator(
-            n_links=inner.arm.n_links, checkpoint=checkpoint, fps=float(inner.clip.fps),
-            reference_direction=float(inner.clip.meta.get("reference_direction", -np.pi / 2)),
-            robot=inner.model, refine=refine,
-        )
+        estimator = build_estimator("cnn", estimator_context(env), checkpoint=checkpoint,
+                                    refine=refine)
         super().__init__(env, estimator, keep_frame=keep_frame)
 
 
-class _TruthReader:
-    """The oracle "estimator": the clip's true angles, omega and alpha at the frame the
-    env shows, trust 1, torque 0. It reads the env, not the frame: evaluation only."""
-
-    def __init__(self, env: gym.Env) -> None:
-        self.env = env.unwrapped
-
-    def reset(self) -> None:
-        """Stateless: the env's ``frame_index`` says where the clip is."""
-
-    def update(self, frame: np.ndarray) -> Estimate:
-        truth, i = self.env.clip.truth, self.env.frame_index
-        return Estimate(angles=truth.angles[i], omega=truth.angular_velocity[i],
-                        alpha=truth.angular_acceleration[i],
-                        torque=np.zeros(truth.angles.shape[1]), trust=1.0)
-
-
 class TruthObservation(EstimatorObservation):
-    """`EstimatorObservation` with a perfect, zero-latency estimator: the clip's truth.
+    """`EstimatorObservation` with a perfect, zero-latency estimator: the clip's truth
+    (registry name ``"oracle"``).
 
     The evaluation suite's ``oracle`` estimator, so any controller can be scored on what
     it would do with perfect vision. Truth in an observation: never train a policy on it.
@@ -216,4 +187,5 @@ class TruthObservation(EstimatorObservation):
 
     def __init__(self, env: gym.Env, keep_frame: bool = True) -> None:
         gym.utils.RecordConstructorArgs.__init__(self, keep_frame=keep_frame)
-        super().__init__(env, _TruthReader(env), keep_frame=keep_frame)
+        super().__init__(env, build_estimator("oracle", estimator_context(env)),
+                         keep_frame=keep_frame)

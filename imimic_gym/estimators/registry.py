@@ -1,0 +1,220 @@
+"""The estimator registry: every vision estimator, by name, in one place.
+
+An entry knows how to build its estimator from an `EstimatorContext` (what the env
+publishes: fps, links, joint ranges, reference direction, modality, robot model), which
+clips it can follow, which keyword parameters a user may pass it, and how many frames it
+reads before its first real estimate. The env wrapper (`wrappers.EstimatorObservation`),
+the evaluation suite, `imimic eval`, `imimic mimic` and the CLI's choices all read this
+registry; adding an estimator is one `register` call::
+
+    register(EstimatorEntry("mine", "my estimator", lambda context, **p: Mine(context.fps)))
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from imimic_gym.estimators.types import Estimate, Estimator, EstimatorContext
+
+__all__ = [
+    "ESTIMATORS", "EstimatorEntry", "UnsupportedClipError", "build_estimator", "get_estimator",
+    "register", "unregister",
+]
+
+
+class UnsupportedClipError(ValueError):
+    """An estimator was asked to follow a clip it cannot (too many links, another
+    demonstrator, no truth for the oracle)."""
+
+
+def _one_frame(params: Mapping[str, Any]) -> int:
+    return 1
+
+
+@dataclass(frozen=True)
+class EstimatorEntry:
+    """One registered estimator.
+
+    Attributes:
+        name: the registry key (``--estimator NAME``).
+        summary: one line for ``--help`` and the demo's introduction.
+        build: ``build(context, **params) -> Estimator``.
+        links: the numbers of moving links it follows.
+        demonstrators: the demonstrators it can read (None: any).
+        params: keyword parameters a user may pass to ``build``.
+        frames_needed: ``frames_needed(params)``: frames read before its first real
+            estimate (a clip shorter than that gives it nothing to say).
+        needs_truth: reads the clip's truth, not its pixels (the oracle).
+    """
+
+    name: str
+    summary: str
+    build: Callable[..., Estimator]
+    links: tuple[int, ...] = (1,)
+    demonstrators: tuple[str, ...] | None = None
+    params: tuple[str, ...] = ()
+    frames_needed: Callable[[Mapping[str, Any]], int] = field(default=_one_frame)
+    needs_truth: bool = False
+
+    @property
+    def links_text(self) -> str:
+        """The links it follows in words: "one moving link", "1 to 3 moving links"."""
+        return _numbers(self.links)
+
+    def unsupported(self, context: EstimatorContext) -> str | None:
+        """Why this estimator cannot follow a clip of ``context``, or None if it can."""
+        if context.n_links not in self.links:
+            return (f"estimator {self.name!r} follows {self.links_text}; "
+                    f"this clip has {context.n_links}")
+        if self.demonstrators is not None and context.demonstrator not in self.demonstrators:
+            return (f"estimator {self.name!r} reads a {' or '.join(self.demonstrators)} "
+                    f"demonstrator's arm; this clip shows a {context.demonstrator!r} "
+                    f"demonstrator")
+        if self.needs_truth and context.truth is None:
+            return f"estimator {self.name!r} reads the clip's truth; this clip has none"
+        return None
+
+
+def _numbers(links: tuple[int, ...]) -> str:
+    """(1,) -> "one moving link"; (1, 2, 3) -> "1 to 3 moving links"."""
+    if links == (1,):
+        return "one moving link"
+    if len(links) > 2 and links == tuple(range(links[0], links[-1] + 1)):
+        return f"{links[0]} to {links[-1]} moving links"
+    return " or ".join(map(str, links)) + " moving links"
+
+
+ESTIMATORS: dict[str, EstimatorEntry] = {}
+
+
+def register(entry: EstimatorEntry, replace: bool = False) -> EstimatorEntry:
+    """Add ``entry`` under its name (``replace`` allows a name already taken)."""
+    if entry.name in ESTIMATORS and not replace:
+        raise ValueError(f"an estimator named {entry.name!r} is registered already")
+    ESTIMATORS[entry.name] = entry
+    return entry
+
+
+def unregister(name: str) -> None:
+    """Remove the estimator ``name`` (tests that register a toy one)."""
+    ESTIMATORS.pop(name, None)
+
+
+def get_estimator(name: str) -> EstimatorEntry:
+    """The entry ``name``; ValueError naming the registered ones otherwise."""
+    try:
+        return ESTIMATORS[name]
+    except KeyError:
+        raise ValueError(f"unknown estimator {name!r}; expected one of "
+                         f"{sorted(ESTIMATORS)}") from None
+
+
+def build_estimator(name: str, context: EstimatorContext, **params: Any) -> Estimator:
+    """The estimator ``name`` set up for ``context``. Raises `UnsupportedClipError` for a
+    clip it cannot follow and ValueError for a parameter it does not take."""
+    entry = get_estimator(name)
+    why = entry.unsupported(context)
+    if why is not None:
+        raise UnsupportedClipError(why)
+    unknown = sorted(set(params) - set(entry.params))
+    if unknown:
+        takes = ", ".join(entry.params) if entry.params else "no parameters"
+        raise ValueError(f"estimator {name!r} does not take {', '.join(unknown)} "
+                         f"(it takes {takes})")
+    return entry.build(context, **params)
+
+
+# The built-in estimators --------------------------------------------------------------
+_DON_PARAMS = ("fps", "window", "gaussian", "threshold", "working_height", "pivot",
+               "trust_threshold", "min_area", "joint_range", "appearance", "search_when_lost",
+               "reseek", "reference_direction")
+_LINKED_PARAMS = ("window", "gaussian", "threshold", "working_height", "pivot", "band",
+                  "min_area", "appearance")
+
+
+def _don(appearance: bool) -> Callable[..., Estimator]:
+    def build(context: EstimatorContext, **params: Any) -> Estimator:
+        """DON for one link (with the modality's smoothing), `LinkedDON` for several."""
+        common = {"fps": context.fps, "reference_direction": context.reference_direction,
+                  "robot": context.robot}
+        if context.n_links == 1:
+            from imimic_gym.estimators.don import DON, gaussian_for
+
+            return DON(**{"joint_range": tuple(context.joint_ranges[0]), **common,
+                          "gaussian": gaussian_for(context.modality),
+                          "appearance": appearance, **params})
+        from imimic_gym.estimators.don_links import LinkedDON
+
+        unknown = sorted(set(params) - set(_LINKED_PARAMS))
+        if unknown:
+            raise ValueError(f"DON for {context.n_links} links does not take "
+                             f"{', '.join(unknown)}")
+        return LinkedDON(context.link_parents, context.joint_ranges,
+                         **{**common, "appearance": appearance, **params})
+
+    return build
+
+
+def _don_frames(params: Mapping[str, Any]) -> int:
+    return int(params.get("window", 10)) + 1
+
+
+def _baseline(kind: str) -> Callable[..., Estimator]:
+    def build(context: EstimatorContext, **params: Any) -> Estimator:
+        from imimic_gym.estimators import baselines
+
+        cls = baselines.MOG2Estimator if kind == "mog2" else baselines.CamShiftEstimator
+        return cls(fps=context.fps, reference_direction=context.reference_direction,
+                   joint_range=tuple(context.joint_ranges[0]), **params)
+
+    return build
+
+
+def _cnn(context: EstimatorContext, **params: Any) -> Estimator:
+    from imimic_gym.estimators.cnn import CNNEstimator
+
+    return CNNEstimator(n_links=context.n_links, fps=context.fps,
+                        reference_direction=context.reference_direction, robot=context.robot,
+                        **params)
+
+
+class TruthReader:
+    """The oracle "estimator": the true angles, omega and alpha of the frame the env
+    shows (from `EstimatorContext.truth`), trust 1, torque 0. Evaluation only: never
+    train a policy on it."""
+
+    def __init__(self, truth: Callable[[], Estimate]) -> None:
+        self.truth = truth
+
+    def reset(self) -> None:
+        """Stateless: the env knows which frame it shows."""
+
+    def update(self, frame: Any) -> Estimate:
+        return self.truth()
+
+
+def _oracle(context: EstimatorContext, **params: Any) -> Estimator:
+    assert context.truth is not None  # checked by EstimatorEntry.unsupported
+    return TruthReader(context.truth)
+
+
+for _entry in (
+    EstimatorEntry("don", "DON (frame differences, no labels; with its appearance layer)",
+                   _don(appearance=True), links=(1, 2, 3), params=_DON_PARAMS,
+                   frames_needed=_don_frames),
+    EstimatorEntry("don-paper", "DON with the paper's layers alone (no appearance layer)",
+                   _don(appearance=False), links=(1, 2, 3),
+                   params=tuple(p for p in _DON_PARAMS if p != "appearance"),
+                   frames_needed=_don_frames),
+    EstimatorEntry("cnn", "CNN + refiner (shipped checkpoint)", _cnn, links=(1, 2),
+                   demonstrators=("human",), params=("checkpoint", "refine")),
+    EstimatorEntry("mog2", "MOG2 background subtraction (baseline)", _baseline("mog2"),
+                   params=("working_height", "gaussian", "min_area")),
+    EstimatorEntry("camshift", "CamShift colour tracking (baseline)", _baseline("camshift"),
+                   params=("working_height", "gaussian", "min_area")),
+    EstimatorEntry("oracle", "oracle (the true angles)", _oracle, links=(1, 2, 3),
+                   needs_truth=True),
+):
+    register(_entry)
