@@ -3,6 +3,9 @@
 VENV    ?= .venv
 PYTHON  ?= python3
 BIN     := $(VENV)/bin
+# The pose model's package, installed without its declared dependencies (pyproject's
+# `pose` extra lists the ones it needs; docs/decisions/pose-model.md says why).
+MEDIAPIPE := mediapipe==0.10.14
 OUT     ?= demo_out
 export MUJOCO_GL ?= egl
 
@@ -10,11 +13,12 @@ export MUJOCO_GL ?= egl
 
 setup: $(VENV)/.installed
 
-$(VENV)/.installed: pyproject.toml
+$(VENV)/.installed: pyproject.toml Makefile
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet torch==2.13.0
-	$(BIN)/python -m pip install --quiet -e ".[dev]"
+	$(BIN)/python -m pip install --quiet -e ".[dev,pose]"
+	$(BIN)/python -m pip install --quiet --no-deps $(MEDIAPIPE)
 	touch $@
 
 demo: setup

@@ -9,6 +9,9 @@ from pathlib import Path
 
 import imimic_gym  # noqa: F401  (registers the env, sets headless GL)
 
+# What `imimic mimic` runs unless told: it finds a person and their moving arm by itself.
+MIMIC_ESTIMATOR = "pose"
+
 
 def _estimator_names(video_only: bool = False) -> tuple[str, ...]:
     """The registered estimators (`estimators.registry`) for ``--estimator`` choices;
@@ -71,12 +74,12 @@ def cmd_demo(args: argparse.Namespace) -> int:
         controller = OracleController(env)
     else:
         from imimic_gym.estimators.registry import UnsupportedClipError, get_estimator
-        from imimic_gym.wrappers import EstimatorObservation
+        from imimic_gym.wrappers import RegistryObservation
 
         print(f"  estimator: {get_estimator(args.estimator).summary}; controller: PD on its "
               "angles")
         try:
-            env = EstimatorObservation.from_registry(env, args.estimator, keep_frame=False)
+            env = RegistryObservation(env, args.estimator, keep_frame=False)
         except UnsupportedClipError as error:
             raise SystemExit(f"imimic demo: {error}") from error
         controller = PDController(env, EstimateTarget(env))
@@ -313,6 +316,9 @@ def cmd_mimic(args: argparse.Namespace) -> int:
     if args.pivot and "pivot" not in entry.params:
         raise SystemExit(f"imimic mimic: --pivot is DON's; {args.estimator} finds the joints "
                          "itself")
+    if args.arm != "auto" and "arm" not in entry.params:
+        raise SystemExit(f"imimic mimic: --arm is for the estimators that find a person "
+                         f"(pose, pose-don); {args.estimator} follows whatever moves")
     if args.links not in entry.links:
         raise SystemExit(f"imimic mimic: {args.estimator} follows {entry.links_text}; "
                          f"--links {args.links}")
@@ -339,13 +345,22 @@ def _mimic(args: argparse.Namespace) -> int:
                             zero_deg=args.servo_zero)
         print(f"  servo bridge on {args.serial} at {args.baud} baud "
               f"({'open' if servo.connected else 'not open yet: retrying'})")
-    low, high = args.joint_range
+    from imimic_gym.estimators.registry import get_estimator
+
+    if args.joint_range is not None:
+        low, high = (math.radians(v) for v in args.joint_range)
+        ranges: list[tuple[float, float]] = [(low, high)] * args.links
+    elif get_estimator(args.estimator).real_people:
+        from imimic_gym.estimators.pose import human_joint_ranges
+
+        ranges = list(human_joint_ranges(args.links))
+    else:
+        ranges = [(math.radians(-60.0), math.radians(60.0))] * args.links
     try:
         clip = stream_video(
             source, n_links=args.links,
             reference_direction=math.radians(args.reference_direction),
-            joint_ranges=[(math.radians(low), math.radians(high))] * args.links, fps=args.fps,
-            max_seconds=args.max_seconds,
+            joint_ranges=ranges, fps=args.fps, max_seconds=args.max_seconds,
         )
     except BaseException:
         if servo is not None:
@@ -356,7 +371,9 @@ def _mimic(args: argparse.Namespace) -> int:
           f"{f', {len(clip)} frames' if clip.frames.length_known else ''}), "
           f"estimator {args.estimator}, "
           f"control {args.control}" + (" (Ctrl-C stops and keeps the outputs)" if live else ""))
-    params = {"pivot": tuple(args.pivot)} if args.pivot else {}
+    params: dict[str, object] = {"pivot": tuple(args.pivot)} if args.pivot else {}
+    if args.arm != "auto":
+        params["arm"] = args.arm
     summary = run_mimic(clip, args.out, estimator=args.estimator, control=args.control,
                         estimator_params=params, servo=servo,
                         realtime=not live and (args.realtime or servo is not None))
@@ -375,10 +392,13 @@ def _add_mimic(sub: argparse._SubParsersAction) -> None:
                     "into --out: mimic.mp4 (the footage with the estimated link drawn on it, "
                     "beside the robot), angles.png (estimate vs robot), mimic.csv (per frame: "
                     "time, estimated angle, omega, torque, eta, robot angle, latency) and "
-                    "mimic.json (frames/s, latency). Footage of unknown geometry gets "
-                    "defaults: the reference link points down the image and the joint spans "
-                    "the paper's 120-degree servo range around it; override them below. "
-                    "Memory stays bounded however long a camera runs.",
+                    "mimic.json (frames/s, latency). By default a pretrained pose model finds "
+                    "the person and the arm that moves, and the robot copies their elbow "
+                    "(--links 2: shoulder and elbow); with nobody in view the robot holds. "
+                    "Footage of unknown geometry gets defaults: the reference link points "
+                    "down the image, and the joint range is a human arm's (the servo's "
+                    "120 degrees for DON and the baselines); override them below. Memory "
+                    "stays bounded however long a camera runs.",
     )
     where = mimic.add_mutually_exclusive_group(required=True)
     where.add_argument("--video", default=None, metavar="FILE",
@@ -387,9 +407,11 @@ def _add_mimic(sub: argparse._SubParsersAction) -> None:
     where.add_argument("--camera", default=None, metavar="INDEX|URL",
                        help="a live camera index (0) or stream URL; shows frames/s and "
                             "latency, stops on Ctrl-C or when the camera disappears")
-    mimic.add_argument("--estimator", default="don",
+    mimic.add_argument("--estimator", default=MIMIC_ESTIMATOR,
                        choices=_estimator_names(video_only=True),
-                       help="the vision estimator (default: %(default)s)")
+                       help="the vision estimator (default: %(default)s, which finds a "
+                            "person by itself; don is the paper's, for a lone moving link "
+                            "such as the servo)")
     mimic.add_argument("--links", type=int, default=1,
                        help="moving links to copy, a chain (default: %(default)s; DON "
                             "handles 1 to 3, the CNN 1 or 2)")
@@ -399,10 +421,15 @@ def _add_mimic(sub: argparse._SubParsersAction) -> None:
     mimic.add_argument("--reference-direction", type=float, default=-90.0, metavar="DEG",
                        help="image direction of the fixed reference link, degrees CCW from "
                             "image right (default: %(default)s = image down)")
-    mimic.add_argument("--joint-range", type=float, nargs=2, default=(-60.0, 60.0),
+    mimic.add_argument("--joint-range", type=float, nargs=2, default=None,
                        metavar=("LOW", "HIGH"),
-                       help="joint range in degrees from the reference (default: -60 60, "
-                            "the paper's 120-degree servo)")
+                       help="the robot's joint range in degrees from the reference (default: "
+                            "a human arm's for the estimators that find a person, -175 175 "
+                            "at the elbow; the paper's 120-degree servo, -60 60, for the "
+                            "others)")
+    mimic.add_argument("--arm", default="auto", choices=("auto", "left", "right"),
+                       help="which of the person's arms to copy (their own left or right; "
+                            "default: auto, the arm that moves)")
     mimic.add_argument("--pivot", type=float, nargs=2, default=None, metavar=("X", "Y"),
                        help="the joint's pixel position if known (default: found by DON)")
     mimic.add_argument("--fps", type=float, default=None,

@@ -39,7 +39,7 @@ import numpy as np
 from imimic_gym.clips.video import StreamEndedError, require_frames, write_video
 from imimic_gym.estimators.registry import get_estimator
 from imimic_gym.rollout import Trajectory
-from imimic_gym.wrappers import EstimatorObservation
+from imimic_gym.wrappers import RegistryObservation
 
 __all__ = ["MimicLog", "mimic_frames", "run_mimic"]
 
@@ -171,7 +171,7 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
     try:
         if not live and known_length:
             require_frames(len(clip), needed, source, why)
-        env = EstimatorObservation.from_registry(
+        env = RegistryObservation(
             gym.make("ImitateVideo-v0", clip=clip, control=control, render_mode="rgb_array"),
             estimator, keep_frame=False, **params)
     except BaseException:  # release the camera or file before the error goes up
@@ -191,7 +191,10 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
         now = time.perf_counter()
         if now - last_update[0] > 0.5 and len(log.latency_ms) > 1:
             recent = log.latency_ms[-30:]
-            bar.set_postfix(latency_ms=f"{np.mean(recent):.1f}", eta=f"{log.trust[-1]:.2f}")
+            status = ("reading" if log.trust[-1] > 0
+                      else "nobody in view: holding" if entry.real_people else "no reading")
+            bar.set_postfix(latency_ms=f"{np.mean(recent):.1f}", eta=f"{log.trust[-1]:.2f}",
+                            status=status)
             last_update[0] = now
 
     ended = "end of footage"
@@ -232,6 +235,7 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
         "latency_ms_median": float(np.median(latency)),
         "latency_ms_p95": float(np.percentile(latency, 95)),
         "mean_trust": float(np.mean(log.trust)) if frames else 0.0,
+        "frames_without_reading": int(np.sum(np.asarray(log.trust) == 0.0)),
         "predicted_fraction": float(np.mean(log.predicted)) if frames else 0.0,
         "skipped_frames": int(getattr(getattr(clip.frames, "reader", None),
                                       "skipped_frames", 0)),

@@ -41,9 +41,9 @@ def estimator_wrapper(name: str) -> Callable[[gym.Env], gym.Env]:
 
 
 def _wrap(env: gym.Env, name: str) -> gym.Env:
-    from imimic_gym.wrappers import EstimatorObservation
+    from imimic_gym.wrappers import RegistryObservation
 
-    return EstimatorObservation.from_registry(env, name, keep_frame=False)
+    return RegistryObservation(env, name, keep_frame=False)
 
 
 def _oracle(env: gym.Env):

@@ -27,8 +27,8 @@ def read_csv(path) -> list[dict[str, str]]:
 def test_mimic_video_writes_the_video_plot_and_csv(servo_clip, servo_mp4, tmp_path) -> None:
     out = tmp_path / "out"
     # The servo is filmed from above with its zero mark pointing up the image.
-    assert main(["mimic", "--video", str(servo_mp4), "--reference-direction", "90",
-                 "--out", str(out)]) == 0
+    assert main(["mimic", "--video", str(servo_mp4), "--estimator", "don",
+                 "--reference-direction", "90", "--out", str(out)]) == 0
     video = cv2.VideoCapture(str(out / "mimic.mp4"))
     try:
         assert int(video.get(cv2.CAP_PROP_FRAME_COUNT)) == 90
@@ -60,7 +60,8 @@ def test_a_video_shorter_than_dons_window_is_named(servo_clip, tmp_path, capsys)
         run_mimic(clip, tmp_path / "out", progress=False)
     assert clip.frames.reader.capture is None
     # The command says it in one line, no traceback, and exits with 2.
-    assert main(["mimic", "--video", str(path), "--out", str(tmp_path / "out")]) == 2
+    assert main(["mimic", "--video", str(path), "--estimator", "don",
+                 "--out", str(tmp_path / "out")]) == 2
     assert re.search(message, capsys.readouterr().err)
 
 
@@ -72,7 +73,7 @@ def test_a_missing_video_is_one_line_from_the_command(tmp_path, capsys) -> None:
 
 def test_more_links_than_don_follows_is_refused() -> None:
     with pytest.raises(SystemExit, match="don follows 1 to 3 moving links; --links 4"):
-        main(["mimic", "--video", "x.mp4", "--links", "4"])
+        main(["mimic", "--video", "x.mp4", "--estimator", "don", "--links", "4"])
 
 
 def test_a_stream_that_ends_early_keeps_everything_written(tmp_path) -> None:
@@ -180,7 +181,8 @@ def test_the_command_drives_a_servo_with_its_range(servo_mp4, tmp_path) -> None:
     controller, device = os.openpty()
     try:
         # --serial paces the file at its own 30 fps; one second of it is enough here.
-        assert main(["mimic", "--video", str(servo_mp4), "--reference-direction", "90",
+        assert main(["mimic", "--video", str(servo_mp4), "--estimator", "don",
+                     "--reference-direction", "90",
                      "--max-seconds", "1", "--serial", os.ttyname(device), "--baud", "57600",
                      "--servo-range", "10", "100", "--out", str(tmp_path)]) == 0
         os.set_blocking(controller, False)
@@ -209,3 +211,30 @@ def test_mimic_runs_the_cnn_on_a_recorded_person(tmp_path) -> None:
     with pytest.raises(SystemExit, match="--pivot is DON's"):
         main(["mimic", "--video", str(tmp_path / "person.mp4"), "--estimator", "cnn",
               "--pivot", "10", "10", "--out", str(tmp_path / "again")])
+
+
+def test_by_default_mimic_finds_the_person_holds_when_they_leave_and_picks_them_up(
+        tmp_path) -> None:
+    from imimic_gym.clips import get_scenario, load_clip
+
+    clip = load_clip(get_scenario("default", seed=5, n_frames=40), progress=False)
+    empty = np.repeat(clip.frames[:1] * 0 + 235, 20, axis=0)  # the person walks out
+    frames = np.concatenate([clip.frames[:20], empty, clip.frames[20:]])
+    write_video(tmp_path / "person.mp4", frames, clip.fps)
+    out = tmp_path / "out"
+    assert main(["mimic", "--video", str(tmp_path / "person.mp4"), "--out", str(out)]) == 0
+    rows = read_csv(out / "mimic.csv")
+    eta = np.array([float(r["eta"]) for r in rows])
+    robot = np.array([float(r["robot_rad"]) for r in rows])
+    estimate = np.array([float(r["angle_rad"]) for r in rows])
+    assert len(rows) == 60 and (eta[21:40] == 0.0).all()
+    # Nobody in view: the estimate is held, so the robot settles and stays.
+    assert np.ptp(estimate[21:40]) == 0.0 and np.ptp(robot[30:40]) < math.radians(1.0)
+    # Back in view: read again, and the forearm followed, roughly: the model reads our
+    # small mannequin in a compressed video some 20 degrees off on the median frame
+    # (the uncompressed clip's accuracy is tests/estimators/test_pose.py's).
+    assert (eta[45:] > 0.5).mean() > 0.8
+    error = np.degrees(np.abs(estimate[45:] - clip.truth.angles[25:, 0]))
+    assert np.median(error) < 30.0 and np.ptp(robot[40:]) > math.radians(10.0)
+    summary = json.loads((out / "mimic.json").read_text())
+    assert summary["estimator"] == "pose" and summary["frames_without_reading"] >= 20

@@ -47,6 +47,8 @@ class EstimatorEntry:
         frames_needed: ``frames_needed(params)``: frames read before its first real
             estimate (a clip shorter than that gives it nothing to say).
         needs_truth: reads the clip's truth, not its pixels (the oracle).
+        real_people: made for footage of real people: `imimic mimic` gives its robot a
+            human arm's joint ranges (`pose.human_joint_ranges`) unless told otherwise.
     """
 
     name: str
@@ -57,6 +59,7 @@ class EstimatorEntry:
     params: tuple[str, ...] = ()
     frames_needed: Callable[[Mapping[str, Any]], int] = field(default=_one_frame)
     needs_truth: bool = False
+    real_people: bool = False
 
     @property
     def links_text(self) -> str:
@@ -180,6 +183,14 @@ def _cnn(context: EstimatorContext, **params: Any) -> Estimator:
                         **params)
 
 
+def _pose(context: EstimatorContext, **params: Any) -> Estimator:
+    from imimic_gym.estimators.pose import PoseEstimator
+
+    return PoseEstimator(n_links=context.n_links, fps=context.fps,
+                         reference_direction=context.reference_direction,
+                         robot=context.robot, **params)
+
+
 class TruthReader:
     """The oracle "estimator": the true angles, omega and alpha of the frame the env
     shows (from `EstimatorContext.truth`), trust 1, torque 0. Evaluation only: never
@@ -214,6 +225,9 @@ for _entry in (
                    params=("working_height", "gaussian", "min_area")),
     EstimatorEntry("camshift", "CamShift colour tracking (baseline)", _baseline("camshift"),
                    params=("working_height", "gaussian", "min_area")),
+    EstimatorEntry("pose", "pretrained human pose model (MediaPipe BlazePose) on every frame",
+                   _pose, links=(1, 2), demonstrators=("human",),
+                   params=("arm", "min_confidence"), real_people=True),
     EstimatorEntry("oracle", "oracle (the true angles)", _oracle, links=(1, 2, 3),
                    needs_truth=True),
 ):

@@ -2,6 +2,7 @@ from imimic_gym.wrappers.estimator import (
     CNNObservation,
     DONObservation,
     EstimatorObservation,
+    RegistryObservation,
     TruthObservation,
     draw_estimate,
     estimate_fields,
@@ -9,6 +10,6 @@ from imimic_gym.wrappers.estimator import (
 )
 
 __all__ = [
-    "CNNObservation", "DONObservation", "EstimatorObservation", "TruthObservation",
-    "draw_estimate", "estimate_fields", "estimator_context",
+    "CNNObservation", "DONObservation", "EstimatorObservation", "RegistryObservation",
+    "TruthObservation", "draw_estimate", "estimate_fields", "estimator_context",
 ]

@@ -3,7 +3,7 @@
 The estimator is an object (any `Estimator`); the wrapper only feeds it frames, so the
 env knows nothing about estimators and estimators know nothing about the env. Estimators
 by name come from the registry (`estimators.registry`), set up from the context the env
-publishes (`ImitateVideoEnv.estimator_context`): `EstimatorObservation.from_registry`.
+publishes (`ImitateVideoEnv.estimator_context`): `RegistryObservation`.
 """
 
 from __future__ import annotations
@@ -24,8 +24,8 @@ from imimic_gym.estimators.types import (
 )
 
 __all__ = [
-    "CNNObservation", "DONObservation", "EstimatorObservation", "TruthObservation",
-    "draw_estimate", "estimate_fields", "estimator_context",
+    "CNNObservation", "DONObservation", "EstimatorObservation", "RegistryObservation",
+    "TruthObservation", "draw_estimate", "estimate_fields", "estimator_context",
 ]
 
 
@@ -111,14 +111,6 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
         self.last_estimate: Estimate | None = None
         self._parents = estimator_context(env).link_parents
 
-    @classmethod
-    def from_registry(cls, env: gym.Env, name: str, keep_frame: bool = True,
-                      **params: Any) -> EstimatorObservation:
-        """``env`` wrapped with the registered estimator ``name``, built from the env's
-        context with ``params``; `UnsupportedClipError` for a clip it cannot follow."""
-        estimator = build_estimator(name, estimator_context(env), **params)
-        return EstimatorObservation(env, estimator, keep_frame=keep_frame)
-
     def reset(self, **kwargs: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         self.estimator.reset()
         return super().reset(**kwargs)
@@ -138,6 +130,21 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
         out = {k: v for k, v in observation.items() if self.keep_frame or k != "frame"}
         out["estimate"] = vector
         return out
+
+
+class RegistryObservation(EstimatorObservation):
+    """`EstimatorObservation` with the registered estimator ``name``
+    (`estimators.registry`), built from the env's `EstimatorContext` with ``params``.
+    Raises `UnsupportedClipError` for a clip it cannot follow. The name and parameters,
+    not the estimator, are what ``gym.make(env.spec)`` and a vector env's sub-processes
+    rebuild it from."""
+
+    def __init__(self, env: gym.Env, name: str, keep_frame: bool = True,
+                 **params: Any) -> None:
+        gym.utils.RecordConstructorArgs.__init__(self, name=name, keep_frame=keep_frame,
+                                                 **params)
+        super().__init__(env, build_estimator(name, estimator_context(env), **params),
+                         keep_frame=keep_frame)
 
 
 class DONObservation(EstimatorObservation):

@@ -20,7 +20,7 @@ from imimic_gym.estimators.registry import (
     unregister,
 )
 from imimic_gym.estimators.types import Estimate, EstimatorContext
-from imimic_gym.wrappers import EstimatorObservation, estimate_fields, estimator_context
+from imimic_gym.wrappers import RegistryObservation, estimate_fields, estimator_context
 
 TOY_ANGLE = 0.25  # rad
 
@@ -50,7 +50,7 @@ def toy():
 
 
 def test_a_toy_estimator_runs_through_the_env_wrapper(toy) -> None:
-    env = EstimatorObservation.from_registry(
+    env = RegistryObservation(
         gym.make("ImitateVideo-v0", scenario="exp2-servo", n_frames=20), "toy",
         keep_frame=False, offset=0.5)
     obs, _ = env.reset(seed=0)
@@ -58,6 +58,11 @@ def test_a_toy_estimator_runs_through_the_env_wrapper(toy) -> None:
         obs, *_ = env.step(np.zeros(1, dtype=np.float32))
     assert obs["estimate"][estimate_fields(1)["angles"]] == pytest.approx([0.75])
     assert env.estimator.frames == 6
+    # Rebuilt from its spec by name and parameters: a new estimator, the same settings.
+    rebuilt = gym.make(env.spec)
+    assert isinstance(rebuilt.estimator, ToyEstimator) and rebuilt.estimator is not env.estimator
+    assert rebuilt.estimator.offset == 0.5
+    rebuilt.close()
     env.close()
 
 

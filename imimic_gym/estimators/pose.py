@@ -1,0 +1,219 @@
+"""The pose estimator (registry name ``pose``): a pretrained human-pose model finds a
+person's shoulder, elbow and wrist in every frame, and they become joint angles by the
+project's convention (`clips.annotations.keypoints_to_angles`: one link, the forearm
+from the upper arm; two, the upper arm from the reference direction and the forearm
+from it), then angular velocity, acceleration and torque through the shared path
+estimator (paper layer 4a, `motion.PathEstimator`).
+
+Which arm: the person's arm that moves (`ArmChooser`), or the one asked for. A human
+elbow bends through about 150 degrees; seen in 2-D it bends either way, depending on
+which side of the arm faces the camera, so the estimate keeps the forearm within
+`ELBOW_RANGE` of the upper arm's line on both sides, continuing from frame to frame
+(a fold seen past 180 degrees stays at its limit, not on the other side). A frame
+without a person (or with the arm below ``min_confidence``) gives trust 0 and the last
+angles, at rest: the robot holds.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from imimic_gym.clips.annotations import keypoints_to_angles
+from imimic_gym.estimators.geometry import within_range
+from imimic_gym.estimators.motion import PathEstimator, TorqueModel
+from imimic_gym.estimators.pose_model import BodyKeypoints, PoseModel
+from imimic_gym.estimators.types import Estimate
+from imimic_gym.metrics import wrap_angle
+
+__all__ = ["ELBOW_RANGE", "SHOULDER_RANGE", "ArmChooser", "ArmReading", "PoseEstimator",
+           "human_joint_ranges"]
+
+# Elbow flexion is 0 to about 150 degrees; a 2-D view shows it either way round, and the
+# margin takes the model's noise and the projection of a straight arm.
+ELBOW_RANGE = (-math.radians(175), math.radians(175))
+# The upper arm from the torso's axis: anywhere but straight up through the body.
+SHOULDER_RANGE = (-math.radians(175), math.radians(175))
+
+
+def human_joint_ranges(n_links: int) -> tuple[tuple[float, float], ...]:
+    """Joint ranges (rad) of a human arm of ``n_links`` (1: the elbow; 2: shoulder and
+    elbow) in the project's convention, for the robot that copies it."""
+    if n_links == 1:
+        return (ELBOW_RANGE,)
+    if n_links == 2:
+        return (SHOULDER_RANGE, ELBOW_RANGE)
+    raise ValueError(f"a human arm is followed with 1 or 2 links, got {n_links}")
+
+
+@dataclass(frozen=True)
+class ArmReading:
+    """One frame's arm from the pose model.
+
+    Attributes:
+        side: "left" or "right", the person's own.
+        keypoints: (3, 2) float64 input pixels (x, y) of shoulder, elbow, wrist.
+        confidence: (3,) float64 in [0, 1], one per keypoint.
+        angles: (n,) rad, the project's convention, within the human ranges.
+    """
+
+    side: str
+    keypoints: np.ndarray
+    confidence: np.ndarray
+    angles: np.ndarray
+
+    @property
+    def trust(self) -> float:
+        return float(self.confidence.min())
+
+
+class ArmChooser:
+    """Which of a person's arms to follow: ``arm`` if it is "left" or "right", else the
+    one that moves.
+
+    Motion is the forearm's image direction change (rad) between consecutive frames in
+    which both its elbow and wrist are confident, summed over the last ``window_s``.
+    It starts with the more confident forearm; the other arm takes over once it has moved
+    ``ratio`` times as much and at least ``min_motion`` rad in the window, so a still
+    arm's jitter never steals the choice from the moving one.
+    """
+
+    def __init__(self, fps: float, arm: str = "auto", window_s: float = 1.0,
+                 ratio: float = 2.0, min_motion: float = 0.3,
+                 min_confidence: float = 0.5) -> None:
+        if arm not in ("auto", "left", "right"):
+            raise ValueError(f"arm must be 'auto', 'left' or 'right', got {arm!r}")
+        self.arm, self.ratio, self.min_motion = arm, ratio, min_motion
+        self.min_confidence = min_confidence
+        self.window = max(2, round(window_s * fps))
+        self.reset()
+
+    def reset(self) -> None:
+        self.side: str | None = None if self.arm == "auto" else self.arm
+        self.motion = {s: deque(maxlen=self.window) for s in ("left", "right")}
+        self.direction: dict[str, float | None] = {"left": None, "right": None}
+
+    def __call__(self, body: BodyKeypoints) -> str:
+        """The side to follow in this frame (call once per frame, in order)."""
+        for side in ("left", "right"):
+            points, confidence = body.arm(side)
+            if min(confidence[1], confidence[2]) < self.min_confidence:
+                self.direction[side] = None
+                self.motion[side].append(0.0)
+                continue
+            dx, dy = points[2] - points[1]
+            direction = math.atan2(-dy, dx)
+            last = self.direction[side]
+            self.motion[side].append(0.0 if last is None else abs(wrap_angle(direction - last)))
+            self.direction[side] = direction
+        if self.arm != "auto":
+            return self.arm
+        moved = {side: sum(values) for side, values in self.motion.items()}
+        if self.side is None:  # the first frame: the more confident forearm (ties: right)
+            seen = {side: float(body.arm(side)[1][1:].min()) for side in moved}
+            self.side = max(seen, key=lambda side: (seen[side], side == "right"))
+        other = "left" if self.side == "right" else "right"
+        if moved[other] > max(self.ratio * moved[self.side], self.min_motion):
+            self.side = other
+        return self.side
+
+
+class PoseEstimator:
+    """A person's arm from a pretrained pose model, behind the `Estimator` interface.
+
+    Args:
+        n_links: 1 (the forearm about the elbow) or 2 (shoulder and elbow).
+        fps: frame rate, for rad/s.
+        reference_direction: image direction (rad, CCW from image right) of the torso's
+            axis, for the 2-link shoulder angle.
+        arm: "auto" (the arm that moves, `ArmChooser`), "left" or "right".
+        min_confidence: a reading whose shoulder, elbow or wrist is less confident than
+            this is not used (trust 0, the angles held).
+        robot: the robot's MuJoCo model, for torques; None gives zero torque.
+        model: a `PoseModel` to use (None: a new one, in video mode).
+    """
+
+    def __init__(self, n_links: int = 1, fps: float = 30.0,
+                 reference_direction: float = -math.pi / 2, arm: str = "auto",
+                 min_confidence: float = 0.5, robot: mujoco.MjModel | None = None,
+                 model: PoseModel | None = None) -> None:
+        if n_links not in (1, 2):
+            raise ValueError(f"the pose estimator follows 1 or 2 links, got n_links={n_links}")
+        if not (math.isfinite(fps) and fps > 0):
+            raise ValueError(f"fps must be a positive number, got {fps!r}")
+        if not 0.0 <= min_confidence <= 1.0:
+            raise ValueError(f"min_confidence must be in [0, 1], got {min_confidence!r}")
+        self.n_links, self.fps = n_links, float(fps)
+        self.reference_direction, self.min_confidence = reference_direction, min_confidence
+        self.ranges = human_joint_ranges(n_links)
+        self.chooser = ArmChooser(fps, arm, min_confidence=min_confidence)
+        self.model = model if model is not None else PoseModel(video=True)
+        self.torque_model = TorqueModel(robot) if robot is not None else None
+        self.reset()
+
+    def reset(self) -> None:
+        self.model.reset()
+        self.chooser.reset()
+        self.path = PathEstimator(self.n_links, self.fps)
+        self.angles = np.zeros(self.n_links)
+        self.last: ArmReading | None = None
+
+    def read(self, frame: np.ndarray) -> ArmReading | None:
+        """This frame's arm, or None where no person (or no confident arm) is seen."""
+        body = self.model(frame)
+        if body is None:
+            return None
+        side = self.chooser(body)
+        keypoints, confidence = body.arm(side)
+        if confidence.min() < self.min_confidence:
+            return None
+        angles = keypoints_to_angles(keypoints, self.n_links, self.reference_direction)
+        angles = np.array([self._within(j, float(q)) for j, q in enumerate(angles)])
+        return ArmReading(side, keypoints, confidence, angles)
+
+    def _within(self, joint: int, q: float) -> float:
+        """``q`` (rad) kept within the joint's human range, continuing last frame's
+        reading: a folded elbow seen in 2-D reads near +-180 degrees and its noise
+        crosses that line, which is no reason for the robot to swing the long way round.
+        So the reading is taken as the turn from last frame's angle (within +-180
+        degrees of it) and stopped at the limit it passes."""
+        low, high = self.ranges[joint]
+        if self.last is None:  # nothing read in the frame before: nothing to continue
+            return within_range(q, (low, high))
+        previous = float(self.last.angles[joint])
+        return min(max(previous + float(wrap_angle(q - previous)), low), high)
+
+    def update(self, frame: np.ndarray) -> Estimate:
+        """Take the next (H, W, 3) uint8 RGB frame and return the estimate for it."""
+        reading = self.read(frame)
+        return self.estimate(reading)
+
+    def estimate(self, reading: ArmReading | None) -> Estimate:
+        """The `Estimate` for a frame's reading (None: hold, trust 0)."""
+        zeros = np.zeros(self.n_links)
+        if reading is None:
+            # Nothing seen: hold the last angles at rest. The path starts afresh at the
+            # next reading, so a person who comes back is no velocity spike.
+            self.path.reset()
+            self.last = None
+            return Estimate(angles=self.angles, omega=zeros, alpha=zeros, torque=zeros,
+                            trust=0.0)
+        if self.last is not None and reading.side != self.last.side:
+            self.path.reset()  # the other arm: a jump, not a velocity
+        self.last, self.angles = reading, reading.angles
+        self.path.update(reading.angles)
+        omega, alpha = self.path.omega(), self.path.alpha()
+        torque = (self.torque_model(reading.angles, omega, alpha)
+                  if self.torque_model is not None else zeros)
+        shown = reading.keypoints[1:] if self.n_links == 1 else reading.keypoints
+        return Estimate(angles=reading.angles, omega=omega, alpha=alpha, torque=torque,
+                        trust=reading.trust, keypoints=shown)
+
+    def run(self, frames) -> list[Estimate]:
+        """Estimates for every frame of an iterable (a clip's frames, a video reader)."""
+        self.reset()
+        return [self.update(frame) for frame in frames]

@@ -1,0 +1,162 @@
+"""The pretrained human-pose model, behind one small class: the only module that imports
+MediaPipe.
+
+`PoseModel` runs MediaPipe Pose (BlazePose GHUM, the "full" landmark model and the person
+detector, both inside the ``mediapipe==0.10.14`` wheel: nothing is downloaded) on the
+CPU and returns one person's body keypoints in input pixels with a confidence each
+(`BodyKeypoints`), or None where it sees nobody. Why this model and this version, and
+how it is installed beside our numpy and OpenCV: `docs/decisions/pose-model.md`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+
+__all__ = ["KEYPOINTS", "MEDIAPIPE_VERSION", "BodyKeypoints", "PoseModel",
+           "PoseModelMissingError"]
+
+MEDIAPIPE_VERSION = "0.10.14"
+# Body keypoints we read, the person's own left and right (a person facing the camera
+# has their left side on the image's right).
+KEYPOINTS = ("left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_wrist",
+             "right_wrist", "left_hip", "right_hip", "left_hand", "right_hand")
+# Their BlazePose landmark indices (the hand is the index finger's knuckle).
+_BLAZEPOSE = (11, 12, 13, 14, 15, 16, 23, 24, 19, 20)
+
+
+class PoseModelMissingError(ImportError):
+    """MediaPipe is not installed (it is an optional part: the ``pose`` extra)."""
+
+
+@dataclass(frozen=True)
+class BodyKeypoints:
+    """One person's keypoints in one frame.
+
+    Attributes:
+        points: (K, 2) float64 input pixels (x, y), K = len(KEYPOINTS), in that order.
+        confidence: (K,) float64 in [0, 1]: the model's visibility of each keypoint.
+    """
+
+    points: np.ndarray
+    confidence: np.ndarray
+
+    def __post_init__(self) -> None:
+        k = len(KEYPOINTS)
+        if self.points.shape != (k, 2) or self.confidence.shape != (k,):
+            raise ValueError(f"BodyKeypoints needs points ({k}, 2) and confidence ({k},), "
+                             f"got {self.points.shape} and {self.confidence.shape}")
+        if not (np.isfinite(self.points).all() and np.isfinite(self.confidence).all()):
+            raise ValueError("BodyKeypoints must be finite")
+
+    def get(self, name: str) -> tuple[np.ndarray, float]:
+        """The keypoint ``name``'s (2,) pixel position and its confidence."""
+        i = KEYPOINTS.index(name)
+        return self.points[i], float(self.confidence[i])
+
+    def arm(self, side: str) -> tuple[np.ndarray, np.ndarray]:
+        """Shoulder, elbow, wrist of ``side`` ("left" or "right"): (3, 2) px, (3,)."""
+        rows = [KEYPOINTS.index(f"{side}_{joint}") for joint in ("shoulder", "elbow", "wrist")]
+        return self.points[rows], self.confidence[rows]
+
+    def facing_camera(self) -> bool:
+        """True when the person's left shoulder lies right of their right shoulder in the
+        image (they face the camera); False when their back is to it."""
+        return bool(self.get("left_shoulder")[0][0] > self.get("right_shoulder")[0][0])
+
+
+def _solution() -> Any:
+    """MediaPipe's legacy Pose solution module (imported here only)."""
+    try:
+        from mediapipe.python.solutions import pose
+    except ImportError as error:
+        raise PoseModelMissingError(
+            "the pose estimator needs MediaPipe: pip install 'imimic_gym[pose]' then "
+            f"pip install --no-deps mediapipe=={MEDIAPIPE_VERSION} (make setup does both); "
+            f"{error}") from error
+    return pose
+
+
+class PoseModel:
+    """MediaPipe Pose on the CPU: (H, W, 3) uint8 RGB frame in, `BodyKeypoints` or None.
+
+    Args:
+        video: True for the frames of one video in order: the landmark model follows the
+            person from the previous frame's region, and the detector runs only when it
+            loses them (the person already tracked stays chosen when others walk in).
+            False treats every frame as a separate photo (the detector picks the most
+            salient person).
+        min_confidence: the detector's and tracker's thresholds, in [0, 1].
+        max_side: frames with a longer side are area-averaged down to it first; the
+            model reads a 256x256 crop, so a 1080p frame only costs more to convert.
+    """
+
+    def __init__(self, video: bool = True, min_confidence: float = 0.5,
+                 max_side: int = 640) -> None:
+        if not 0.0 <= min_confidence <= 1.0:
+            raise ValueError(f"min_confidence must be in [0, 1], got {min_confidence!r}")
+        if max_side < 64:
+            raise ValueError(f"max_side must be at least 64 px, got {max_side!r}")
+        _solution()  # fail here, with how to install it, rather than at the first frame
+        self.video, self.min_confidence, self.max_side = video, min_confidence, max_side
+        self._graph: Any = None
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the person tracked so far: the next frame starts a new video (the
+        model's graph starts on that frame)."""
+        self.close()
+
+    def _start(self) -> None:
+        self._graph = _solution().Pose(
+            static_image_mode=not self.video, model_complexity=1, smooth_landmarks=True,
+            enable_segmentation=False, min_detection_confidence=self.min_confidence,
+            min_tracking_confidence=self.min_confidence)
+
+    # A copy or an unpickled model is a new model with the same settings: MediaPipe's graph
+    # is native code, and a copy starts a new video anyway.
+    def __getstate__(self) -> dict[str, Any]:
+        return {"video": self.video, "min_confidence": self.min_confidence,
+                "max_side": self.max_side}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__init__(**state)
+
+    def __deepcopy__(self, memo: dict[int, Any]) -> PoseModel:
+        return PoseModel(**self.__getstate__())
+
+    def close(self) -> None:
+        if self._graph is not None:
+            self._graph.close()
+            self._graph = None
+
+    def __call__(self, frame: np.ndarray) -> BodyKeypoints | None:
+        if not (isinstance(frame, np.ndarray) and frame.dtype == np.uint8 and frame.ndim == 3
+                and frame.shape[2] == 3 and frame.shape[0] > 0 and frame.shape[1] > 0):
+            got = (f"{frame.shape} {frame.dtype}" if isinstance(frame, np.ndarray)
+                   else type(frame).__name__)
+            raise ValueError(f"PoseModel takes (H, W, 3) uint8 RGB frames, got {got}")
+        if self._graph is None:
+            self._start()
+        h, w = frame.shape[:2]
+        scale = max(h, w) / self.max_side
+        if scale > 1:
+            frame = cv2.resize(frame, (max(1, round(w / scale)), max(1, round(h / scale))),
+                               interpolation=cv2.INTER_AREA)
+        with warnings.catch_warnings():
+            # protobuf 4.25 warns of an API MediaPipe 0.10.14 calls on every frame.
+            warnings.filterwarnings("ignore", message="SymbolDatabase.GetPrototype",
+                                    category=UserWarning)
+            result = self._graph.process(np.ascontiguousarray(frame))
+        if result.pose_landmarks is None:
+            return None
+        marks = result.pose_landmarks.landmark
+        points = np.array([(marks[i].x * w, marks[i].y * h) for i in _BLAZEPOSE])
+        confidence = np.array([marks[i].visibility for i in _BLAZEPOSE])
+        if not (np.isfinite(points).all() and np.isfinite(confidence).all()):
+            return None
+        return BodyKeypoints(points=points, confidence=np.clip(confidence, 0.0, 1.0))

@@ -1,0 +1,145 @@
+"""The pose estimator: the real MediaPipe model on rendered frames, and its arm choice,
+angles and hold logic on hand-built keypoint tracks."""
+
+import copy
+import math
+import pickle
+
+import numpy as np
+import pytest
+
+from imimic_gym.clips.annotations import keypoints_to_angles
+from imimic_gym.clips.cache import load_clip
+from imimic_gym.clips.scenarios import get_scenario
+from imimic_gym.estimators.pose import ELBOW_RANGE, ArmChooser, PoseEstimator
+from imimic_gym.estimators.pose_model import KEYPOINTS, BodyKeypoints, PoseModel
+from imimic_gym.metrics import angle_rmse_deg
+
+
+@pytest.fixture(scope="module")
+def person_clip():
+    return load_clip(get_scenario("default", seed=5, n_frames=30), progress=False)
+
+
+def test_the_model_finds_the_rendered_persons_arm(person_clip) -> None:
+    model = PoseModel(video=False)  # every frame a photo: the detector's work each time
+    errors = []
+    for frame, truth in zip(person_clip.frames, person_clip.truth.keypoints, strict=True):
+        body = model(frame)
+        if body is None:
+            continue
+        assert np.isfinite(body.points).all()
+        assert ((body.confidence >= 0) & (body.confidence <= 1)).all()
+        assert body.facing_camera()
+        # Our demonstrator moves their left arm (on the image's right, facing the camera).
+        points, confidence = body.arm("left")
+        if confidence.min() < 0.5:
+            continue
+        # On the arm: its upper arm is ~40 px long here, and the model places the small
+        # mannequin's joints up to ~25 px from the renderer's joint centres.
+        assert np.linalg.norm(points - truth[:3], axis=1).max() < 30.0
+        error = keypoints_to_angles(points, 1) - keypoints_to_angles(truth[:3], 1)
+        errors.append(math.degrees(error[0]))
+    assert len(errors) >= 0.7 * len(person_clip)
+    # The forearm's angle from the upper arm, frame by frame from photos (no tracking).
+    assert np.sqrt(np.mean(np.square(errors))) < 12.0 and np.abs(errors).max() < 30.0
+
+
+def test_a_frame_without_a_person_is_a_clean_none() -> None:
+    model = PoseModel(video=False)
+    assert model(np.full((240, 320, 3), 200, np.uint8)) is None
+    with pytest.raises(ValueError, match=r"PoseModel takes \(H, W, 3\) uint8 RGB frames"):
+        model(np.zeros((0, 10, 3), np.uint8))
+
+
+def test_a_copied_or_pickled_model_is_a_fresh_one_with_the_same_settings() -> None:
+    model = PoseModel(video=False, min_confidence=0.4, max_side=320)
+    for twin in (copy.deepcopy(model), pickle.loads(pickle.dumps(model))):
+        assert (twin.video, twin.min_confidence, twin.max_side) == (False, 0.4, 320)
+        assert twin(np.full((64, 64, 3), 200, np.uint8)) is None
+
+
+def test_the_estimator_follows_the_rendered_forearm(person_clip) -> None:
+    estimates = PoseEstimator(n_links=1, fps=person_clip.fps).run(person_clip.frames)
+    angles = np.array([e.angles for e in estimates])
+    assert all(e.trust > 0.5 for e in estimates[5:])
+    assert angle_rmse_deg(angles[5:], person_clip.truth.angles[5:]) < 12.0
+    assert all(np.isfinite(e.omega).all() and e.keypoints.shape == (2, 2) for e in estimates)
+
+
+class ScriptedModel:
+    """A pose model that plays back hand-built keypoints (None: nobody in view)."""
+
+    def __init__(self, bodies) -> None:
+        self.bodies, self.i = list(bodies), 0
+
+    def reset(self) -> None:
+        self.i = 0
+
+    def __call__(self, frame):
+        body = self.bodies[self.i]
+        self.i += 1
+        return body
+
+
+def body(left_forearm: float = -90.0, right_forearm: float = -90.0,
+         confidence: float = 0.9) -> BodyKeypoints:
+    """A person facing the camera, upper arms hanging, forearms at these image angles
+    (deg CCW from image right)."""
+    points = {"left_shoulder": (200, 100), "right_shoulder": (120, 100),
+              "left_elbow": (200, 160), "right_elbow": (120, 160),
+              "left_hip": (190, 200), "right_hip": (130, 200)}
+    for side, angle in (("left", left_forearm), ("right", right_forearm)):
+        ex, ey = points[f"{side}_elbow"]
+        a = math.radians(angle)
+        points[f"{side}_wrist"] = (ex + 50 * math.cos(a), ey - 50 * math.sin(a))
+        points[f"{side}_hand"] = (ex + 60 * math.cos(a), ey - 60 * math.sin(a))
+    return BodyKeypoints(points=np.array([points[k] for k in KEYPOINTS], float),
+                         confidence=np.full(len(KEYPOINTS), confidence))
+
+
+def test_the_arm_that_moves_is_chosen() -> None:
+    chooser = ArmChooser(fps=30.0)
+    # Both still: the more confident (tie: the right). Then the left waves: it takes over.
+    assert chooser(body()) == "right"
+    sides = [chooser(body(left_forearm=-90 + 40 * math.sin(t / 3))) for t in range(30)]
+    assert sides[-1] == "left" and sides.index("left") < 10
+    # Jitter of the right arm does not steal the choice back.
+    sides = [chooser(body(left_forearm=-90 + 40 * math.sin(t / 3),
+                          right_forearm=-90 + 2 * (-1) ** t)) for t in range(30)]
+    assert set(sides) == {"left"}
+    assert ArmChooser(fps=30.0, arm="right")(body(left_forearm=0)) == "right"
+    with pytest.raises(ValueError, match="arm must be 'auto', 'left' or 'right'"):
+        ArmChooser(fps=30.0, arm="both")
+
+
+def test_angles_follow_the_convention_and_nobody_means_hold() -> None:
+    bodies = [body(left_forearm=-60.0), body(left_forearm=-50.0), None, None,
+              body(left_forearm=-40.0, confidence=0.3), body(left_forearm=-30.0)]
+    estimator = PoseEstimator(fps=30.0, arm="left", model=ScriptedModel(bodies))
+    estimates = [estimator.update(np.zeros((8, 8, 3), np.uint8)) for _ in bodies]
+    angles = [math.degrees(e.angles[0]) for e in estimates]
+    # Upper arm straight down (-90): the forearm at -60 is 30 deg counter-clockwise of it.
+    assert angles[0] == pytest.approx(30.0) and angles[1] == pytest.approx(40.0)
+    expected = keypoints_to_angles(body(left_forearm=-50.0).arm("left")[0], 1)
+    assert estimates[1].angles == pytest.approx(expected)
+    assert estimates[1].omega[0] == pytest.approx(math.radians(10.0) * 30.0 / 2)
+    # Nobody, then an arm below the confidence floor: trust 0, the angle held at rest.
+    for held in estimates[2:5]:
+        assert held.trust == 0.0 and math.degrees(held.angles[0]) == pytest.approx(40.0)
+        assert held.omega[0] == 0.0 and held.keypoints is None
+    # Seen again: read afresh, with no velocity spike from the gap.
+    assert angles[5] == pytest.approx(60.0) and estimates[5].omega[0] == 0.0
+
+
+def test_a_folded_elbow_does_not_flip_across_180_degrees() -> None:
+    # The forearm folds back along the upper arm, its reading crossing +-180 deg and back.
+    forearms = [80.0, 84.0, 88.0, 92.0, 96.0, 80.0]  # image angles: q = forearm - (-90)
+    model = ScriptedModel([body(left_forearm=a) for a in forearms])
+    estimator = PoseEstimator(fps=30.0, arm="left", model=model)
+    angles = [math.degrees(estimator.update(np.zeros((8, 8, 3), np.uint8)).angles[0])
+              for _ in forearms]
+    limit = math.degrees(ELBOW_RANGE[1])  # 175
+    # 170, 174, then 178, 182 (read -178) and 186 (read -174) all stop at the limit on
+    # the side the elbow is on, not at -178 or -174; then back to 170.
+    assert angles == pytest.approx([170.0, 174.0, limit, limit, limit, 170.0])
