@@ -316,6 +316,9 @@ def cmd_mimic(args: argparse.Namespace) -> int:
     if args.pivot and "pivot" not in entry.params:
         raise SystemExit(f"imimic mimic: --pivot is DON's; {args.estimator} finds the joints "
                          "itself")
+    if args.preview_height < 0:
+        raise SystemExit(f"imimic mimic: --preview-height takes 0 (the footage's size) or a "
+                         f"positive number of rows, got {args.preview_height}")
     if args.arm != "auto" and "arm" not in entry.params:
         raise SystemExit(f"imimic mimic: --arm is for the estimators that find a person "
                          f"(pose, pose-don); {args.estimator} follows whatever moves")
@@ -376,7 +379,8 @@ def _mimic(args: argparse.Namespace) -> int:
         params["arm"] = args.arm
     summary = run_mimic(clip, args.out, estimator=args.estimator, control=args.control,
                         estimator_params=params, servo=servo,
-                        realtime=not live and (args.realtime or servo is not None))
+                        realtime=not live and (args.realtime or servo is not None),
+                        preview_height=args.preview_height or None)
     out = Path(args.out)
     print(f"{summary['ended']}: wrote {out / 'mimic.mp4'}, {out / 'angles.png'}, "
           f"{out / 'mimic.csv'}, {out / 'mimic.json'}")
@@ -452,6 +456,9 @@ def _add_mimic(sub: argparse._SubParsersAction) -> None:
                        help="play a file at its own frame rate rather than as fast as "
                             "possible (always on with --serial: the servo moves at the "
                             "person's speed)")
+    mimic.add_argument("--preview-height", type=int, default=540, metavar="ROWS",
+                       help="rows of mimic.mp4 for taller footage (default: %(default)s; the "
+                            "estimator still reads full frames; 0 keeps the footage's size)")
     mimic.add_argument("--out", default="mimic_out", help="output folder (default: %(default)s)")
     mimic.set_defaults(func=cmd_mimic)
 

@@ -6,12 +6,13 @@ All angle inputs are radians, shaped (T,) or (T, n); outputs are in degrees or f
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
 __all__ = [
-    "OCCLUDED", "RECOVERED_DEG", "angle_rmse_deg", "jerk_rms", "lag_frames", "max_error_deg",
-    "pcp", "recovery_time_s", "wrap_angle",
+    "OCCLUDED", "RECOVERED_DEG", "angle_rmse_deg", "bootstrap_interval", "jerk_rms",
+    "lag_frames", "max_error_deg", "pcp", "recovery_time_s", "wrap_angle",
 ]
 
 OCCLUDED = 0.1  # a frame counts as occluded when over 10% of the moving links is hidden
@@ -63,6 +64,22 @@ def lag_frames(truth: np.ndarray, follower: np.ndarray, max_lag: int = 30) -> in
         if score > best + 1e-12:
             best_lag, best = k, score
     return best_lag
+
+
+def bootstrap_interval(values: np.ndarray, statistic: Any = np.mean, level: float = 0.95,
+                       resamples: int = 2000, seed: int = 0) -> tuple[float, float]:
+    """The percentile bootstrap interval (``level``, e.g. 95%) of ``statistic`` over
+    ``values`` (N,) resampled with replacement ``resamples`` times, seeded: (low, high).
+    NaN for no values."""
+    values = np.asarray(values, dtype=np.float64)
+    if values.size == 0:
+        return (math.nan, math.nan)
+    rng = np.random.default_rng(seed)
+    picks = rng.integers(0, values.size, size=(resamples, values.size))
+    stats = np.array([statistic(values[row]) for row in picks])
+    tail = 100 * (1 - level) / 2
+    low, high = np.percentile(stats, [tail, 100 - tail])
+    return float(low), float(high)
 
 
 def pcp(predicted: np.ndarray, truth: np.ndarray, limb: tuple[int, int],

@@ -41,7 +41,11 @@ from imimic_gym.estimators.registry import get_estimator
 from imimic_gym.rollout import Trajectory
 from imimic_gym.wrappers import RegistryObservation
 
-__all__ = ["MimicLog", "mimic_frames", "run_mimic"]
+__all__ = ["PREVIEW_HEIGHT", "MimicLog", "mimic_frames", "run_mimic"]
+
+# Rows of mimic.mp4 for taller footage: drawing the robot and encoding a 3840x1080 side-by-
+# side video cost a 1080p run more than reading and estimating the footage did.
+PREVIEW_HEIGHT = 540
 
 
 @dataclass
@@ -149,12 +153,15 @@ def steady_rate(log: MimicLog) -> float:
 
 def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str = "position",
               estimator_params: dict[str, Any] | None = None, servo: Any = None,
-              progress: bool = True, realtime: bool = False) -> dict[str, Any]:
+              progress: bool = True, realtime: bool = False,
+              preview_height: int | None = PREVIEW_HEIGHT) -> dict[str, Any]:
     """Mimic the arm in ``clip`` (a `Clip`, typically from `stream_video`) and write the
     outputs into ``out`` (see the module docstring). ``realtime`` paces a file to its own
     frame rate (a servo then moves at the person's speed; a camera paces itself). Returns
     the summary also written to ``mimic.json``: frames, wall time, frames/s, latency, mean
-    eta, how the run ended. The clip's stream and ``servo`` are closed at the end."""
+    eta, how the run ended. The clip's stream and ``servo`` are closed at the end.
+    ``preview_height``: rows of ``mimic.mp4`` where the footage has more (None: the
+    footage's); the estimator always reads the full frames."""
     from tqdm.auto import tqdm
 
     from imimic_gym.controllers import EstimateTarget, PDController
@@ -172,7 +179,8 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
         if not live and known_length:
             require_frames(len(clip), needed, source, why)
         env = RegistryObservation(
-            gym.make("ImitateVideo-v0", clip=clip, control=control, render_mode="rgb_array"),
+            gym.make("ImitateVideo-v0", clip=clip, control=control, render_mode="rgb_array",
+                     render_height=preview_height),
             estimator, keep_frame=False, **params)
     except BaseException:  # release the camera or file before the error goes up
         if hasattr(clip.frames, "close"):

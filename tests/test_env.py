@@ -279,3 +279,19 @@ def test_only_a_few_clips_stay_in_memory() -> None:
         env.reset(seed=0, options={"clip_seed": seed})
     assert len(env.unwrapped._clips) == CLIPS_IN_MEMORY
     assert env.unwrapped.clip.meta["seed"] == CLIPS_IN_MEMORY + 1
+
+
+def test_render_height_draws_a_smaller_picture() -> None:
+    env = gym.make("ImitateVideo-v0", scenario="default", n_frames=5, render_mode="rgb_array",
+                   render_height=120)
+    env.reset(seed=0)
+    picture = env.render()
+    assert picture.shape == (120, 320, 3) and picture.dtype == np.uint8
+    full = gym.make("ImitateVideo-v0", scenario="default", n_frames=5, render_mode="rgb_array",
+                    render_height=480)  # taller than the clip: the clip's own size
+    full.reset(seed=0)
+    assert full.render().shape == (240, 640, 3)
+    with pytest.raises(ValueError, match="render_height must be a positive integer"):
+        gym.make("ImitateVideo-v0", scenario="default", render_height=0)
+    env.close()
+    full.close()

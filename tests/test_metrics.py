@@ -76,3 +76,15 @@ def test_recovery_counts_frames_until_the_error_is_small_again() -> None:
     assert recovery_time_s(robot, truth, np.zeros(10), fps) is None
     never = np.radians([0, 20, 20, 20, 20, 20, 20, 20, 20, 20])
     assert recovery_time_s(never, truth, occlusion, fps) == pytest.approx(0.7)
+
+
+def test_bootstrap_interval_brackets_the_statistic_and_is_seeded() -> None:
+    from imimic_gym.metrics import bootstrap_interval
+
+    values = np.arange(100.0)
+    low, high = bootstrap_interval(values)
+    assert low < 49.5 < high and 43 < low and high < 56
+    assert bootstrap_interval(values) == (low, high)
+    low, high = bootstrap_interval(values, np.median, level=0.5)
+    assert low < 49.5 < high
+    assert np.isnan(bootstrap_interval([])[0])

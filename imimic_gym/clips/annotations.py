@@ -80,6 +80,8 @@ class ArmAnnotation:
         image_id: the COCO image id.
         render: for rendered images, the record that regenerates them (`clips.dataset`);
             None for photos.
+        side: "left" or "right", the person's own, for COCO ``person`` annotations; None
+            for an ``arm`` category.
     """
 
     file_name: str
@@ -89,6 +91,7 @@ class ArmAnnotation:
     labelled: np.ndarray
     image_id: int
     render: dict[str, Any] | None = field(default=None, compare=False)
+    side: str | None = field(default=None, compare=False)
 
 
 def _need(entry: dict, key: str, where: str, path: Path) -> Any:
@@ -158,10 +161,11 @@ def read_annotations(path: str | Path) -> list[ArmAnnotation]:
             raise AnnotationError(f"{path}: {where} has {got} keypoint values; its category "
                                   f"has {count} keypoints, so expected {3 * count} (x, y, v)")
         triples = np.asarray(flat, dtype=np.float64).reshape(count, 3)
-        side = next((s for s in sides if np.all(triples[list(s), 2] > 0)), None)
-        if side is None:
+        choice = next((k for k, s in enumerate(sides) if np.all(triples[list(s), 2] > 0)),
+                      None)
+        if choice is None:
             continue
-        points = triples[list(side), :2]
+        points = triples[list(sides[choice]), :2]
         size = float(ann.get("area") or np.ptp(points, axis=0).prod())
         image = images[image_id]
         arm = ArmAnnotation(
@@ -169,6 +173,7 @@ def read_annotations(path: str | Path) -> list[ArmAnnotation]:
             height=int(image["height"]), keypoints=points.astype(np.float32),
             labelled=np.ones(3, dtype=bool), image_id=int(image_id),
             render=image.get("imimic_render"),
+            side=list(COCO_SIDES)[choice] if len(sides) == 2 else None,
         )
         if image_id not in best or size > best[image_id][0]:
             best[image_id] = (size, arm)

@@ -8,6 +8,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, ClassVar
 
+import cv2
 import gymnasium as gym
 import mujoco
 import numpy as np
@@ -137,6 +138,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
     | `ctrl_cost_weight` | `0.001` | weight of the squared action |
     | `reset_noise_scale` | `0.02` | start-pose noise, rad |
     | `render_mode` | `None` | `"rgb_array"`: `render()` returns video and robot side by side |
+    | `render_height` | `None` | rows of `render()`'s picture if fewer than the clip's |
 
     ## Version History
     - v0: first version.
@@ -160,11 +162,12 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         render_mode: str | None = None,
         clip: str | Clip | None = None,
         annotations: str | None = None,
+        render_height: int | None = None,
     ) -> None:
         EzPickle.__init__(
             self, scenario, n_links, control, modality, width, height, clip_seeds,
             n_frames, tracking_weight, ctrl_cost_weight, reset_noise_scale, render_mode,
-            clip, annotations,
+            clip, annotations, render_height,
         )
         if control not in CONTROL_MODES:
             raise ValueError(f"control must be one of {CONTROL_MODES}, got {control!r}")
@@ -172,12 +175,14 @@ class ImitateVideoEnv(gym.Env, EzPickle):
             raise ValueError(f"modality must be one of {MODALITIES}, got {modality!r}")
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        for name, value in (("width", width), ("height", height), ("n_frames", n_frames)):
+        for name, value in (("width", width), ("height", height), ("n_frames", n_frames),
+                            ("render_height", render_height)):
             if value is not None and not (isinstance(value, int) and value > 0):
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
         if n_links is not None and not (isinstance(n_links, int) and 1 <= n_links <= MAX_LINKS):
             raise ValueError(f"n_links must be an integer from 1 to {MAX_LINKS}, got {n_links!r}")
         self.control, self.modality, self.render_mode = control, modality, render_mode
+        self.render_height = render_height
         self.tracking_weight, self.ctrl_cost_weight = tracking_weight, ctrl_cost_weight
         self.reset_noise_scale = reset_noise_scale
 
@@ -400,14 +405,22 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         return self._obs(), reward_tracking + reward_ctrl, False, truncated, info
 
     def render(self) -> np.ndarray | None:
-        """(H, 2W, 3) uint8: the video frame (left) beside the robot (right), same size."""
+        """(H, 2W, 3) uint8: the video frame (left) beside the robot (right), same size;
+        H = ``render_height`` where that is fewer rows than the clip's (the frame area-
+        averaged down, the robot drawn at that size: a 1080p preview costs more to draw
+        and encode than the footage costs to read)."""
         if self.render_mode is None:
             gym.logger.warn("render() called without render_mode='rgb_array'; returning None")
             return None
-        if self._renderer is None:
-            self._renderer = OffscreenRenderer(self.model, self.clip.height, self.clip.width)
-        robot, _ = self._renderer.render(self.data, self.model.camera("robot").id)
         frame = self._frames[self.frame_index or 0]
+        height, width = frame.shape[:2]
+        if self.render_height is not None and self.render_height < height:
+            width = max(1, round(width * self.render_height / height))
+            height = self.render_height
+            frame = cv2.resize(frame, (width, height), interpolation=cv2.INTER_AREA)
+        if self._renderer is None:
+            self._renderer = OffscreenRenderer(self.model, height, width)
+        robot, _ = self._renderer.render(self.data, self.model.camera("robot").id)
         return np.concatenate([frame, robot], axis=1)
 
     def close(self) -> None:

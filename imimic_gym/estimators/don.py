@@ -465,6 +465,14 @@ class DON:
         self.last_mask: np.ndarray | None = None
         self.guess: float | None = None  # the last direction guessed before the pivot
 
+    def move_pivot(self, pivot: tuple[float, float]) -> None:
+        """The link's pivot is now at ``pivot`` (x, y input px): a known pivot that moved,
+        as a pose model seeding DON reports it. The frames seen so far stay (the camera
+        has not moved), so DON reads on without a new window."""
+        self.known_pivot = np.asarray(pivot, dtype=np.float64)
+        if self.link is not None:
+            self.link.known_pivot = self.known_pivot / self.scale
+
     @property
     def scale(self) -> float:
         """Input pixels per working pixel."""

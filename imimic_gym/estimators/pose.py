@@ -31,7 +31,7 @@ from imimic_gym.estimators.types import Estimate
 from imimic_gym.metrics import wrap_angle
 
 __all__ = ["ELBOW_RANGE", "SHOULDER_RANGE", "ArmChooser", "ArmReading", "PoseEstimator",
-           "human_joint_ranges"]
+           "continue_within", "human_joint_ranges"]
 
 # Elbow flexion is 0 to about 150 degrees; a 2-D view shows it either way round, and the
 # margin takes the model's noise and the projection of a straight arm.
@@ -48,6 +48,19 @@ def human_joint_ranges(n_links: int) -> tuple[tuple[float, float], ...]:
     if n_links == 2:
         return (SHOULDER_RANGE, ELBOW_RANGE)
     raise ValueError(f"a human arm is followed with 1 or 2 links, got {n_links}")
+
+
+def continue_within(q: float, joint_range: tuple[float, float],
+                    previous: float | None) -> float:
+    """The reading ``q`` (rad) kept within ``joint_range``, continuing ``previous`` (the
+    frame before's angle; None: nothing to continue). A folded elbow seen in 2-D reads
+    near +-180 degrees and its noise crosses that line, which is no reason for the robot
+    to swing the long way round; so the reading is taken as the turn from the previous
+    angle (within +-180 degrees of it) and stopped at the limit it passes."""
+    low, high = joint_range
+    if previous is None:
+        return within_range(q, joint_range)
+    return min(max(previous + float(wrap_angle(q - previous)), low), high)
 
 
 @dataclass(frozen=True)
@@ -162,8 +175,11 @@ class PoseEstimator:
         self.angles = np.zeros(self.n_links)
         self.last: ArmReading | None = None
 
-    def read(self, frame: np.ndarray) -> ArmReading | None:
-        """This frame's arm, or None where no person (or no confident arm) is seen."""
+    def read(self, frame: np.ndarray, previous: np.ndarray | None = None
+             ) -> ArmReading | None:
+        """This frame's arm, or None where no person (or no confident arm) is seen.
+        ``previous``: the (n,) angles of the frame before, if it had a reading: a
+        reading continues from them (`continue_within`)."""
         body = self.model(frame)
         if body is None:
             return None
@@ -172,25 +188,16 @@ class PoseEstimator:
         if confidence.min() < self.min_confidence:
             return None
         angles = keypoints_to_angles(keypoints, self.n_links, self.reference_direction)
-        angles = np.array([self._within(j, float(q)) for j, q in enumerate(angles)])
+        angles = np.array([continue_within(float(q), joint_range,
+                                           None if previous is None else float(previous[j]))
+                           for j, (q, joint_range) in enumerate(zip(angles, self.ranges,
+                                                                    strict=True))])
         return ArmReading(side, keypoints, confidence, angles)
-
-    def _within(self, joint: int, q: float) -> float:
-        """``q`` (rad) kept within the joint's human range, continuing last frame's
-        reading: a folded elbow seen in 2-D reads near +-180 degrees and its noise
-        crosses that line, which is no reason for the robot to swing the long way round.
-        So the reading is taken as the turn from last frame's angle (within +-180
-        degrees of it) and stopped at the limit it passes."""
-        low, high = self.ranges[joint]
-        if self.last is None:  # nothing read in the frame before: nothing to continue
-            return within_range(q, (low, high))
-        previous = float(self.last.angles[joint])
-        return min(max(previous + float(wrap_angle(q - previous)), low), high)
 
     def update(self, frame: np.ndarray) -> Estimate:
         """Take the next (H, W, 3) uint8 RGB frame and return the estimate for it."""
-        reading = self.read(frame)
-        return self.estimate(reading)
+        previous = None if self.last is None else self.last.angles
+        return self.estimate(self.read(frame, previous))
 
     def estimate(self, reading: ArmReading | None) -> Estimate:
         """The `Estimate` for a frame's reading (None: hold, trust 0)."""

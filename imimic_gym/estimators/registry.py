@@ -191,6 +191,13 @@ def _pose(context: EstimatorContext, **params: Any) -> Estimator:
                          robot=context.robot, **params)
 
 
+def _pose_don(context: EstimatorContext, **params: Any) -> Estimator:
+    from imimic_gym.estimators.pose_don import PoseSeededDON
+
+    return PoseSeededDON(fps=context.fps, reference_direction=context.reference_direction,
+                         robot=context.robot, **params)
+
+
 class TruthReader:
     """The oracle "estimator": the true angles, omega and alpha of the frame the env
     shows (from `EstimatorContext.truth`), trust 1, torque 0. Evaluation only: never
@@ -228,6 +235,9 @@ for _entry in (
     EstimatorEntry("pose", "pretrained human pose model (MediaPipe BlazePose) on every frame",
                    _pose, links=(1, 2), demonstrators=("human",),
                    params=("arm", "min_confidence"), real_people=True),
+    EstimatorEntry("pose-don", "DON on a crop about the elbow, seeded and re-seeded by the "
+                   "pose model every few frames", _pose_don, demonstrators=("human",),
+                   params=("arm", "min_confidence", "pose_every", "window"), real_people=True),
     EstimatorEntry("oracle", "oracle (the true angles)", _oracle, links=(1, 2, 3),
                    needs_truth=True),
 ):

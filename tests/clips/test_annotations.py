@@ -44,6 +44,7 @@ def test_write_then_read_gives_the_same_arms(tmp_path: Path) -> None:
     np.testing.assert_array_equal(back[0].keypoints, arms[0].keypoints)
     assert back[0].render == {"frame_index": 3} and back[1].render is None
     assert back[0].keypoints.dtype == np.float32 and back[0].labelled.all()
+    assert back[0].side is None  # an arm category has no side
 
 
 def test_coco_person_takes_the_complete_side_of_the_largest_person(tmp_path: Path) -> None:
@@ -55,6 +56,9 @@ def test_coco_person_takes_the_complete_side_of_the_largest_person(tmp_path: Pat
     arms = read_annotations(coco_person_file(tmp_path / "p.json", [small, big]))
     assert len(arms) == 1
     np.testing.assert_array_equal(arms[0].keypoints, [[100, 50], [120, 80], [130, 110]])
+    assert arms[0].side == "right"
+    (only_small,) = read_annotations(coco_person_file(tmp_path / "q.json", [small]))
+    assert only_small.side == "left"
 
 
 def test_a_person_without_a_complete_arm_is_skipped(tmp_path: Path) -> None:

@@ -1,0 +1,65 @@
+"""The benchmark runner: one command per named suite, JSON out, a report rendered from
+the JSON alone.
+
+    .venv/bin/python benchmarks/run.py real            # run, write results/real.json + .md
+    .venv/bin/python benchmarks/run.py real --render   # re-render results/real.md only
+
+Each suite is a module in ``benchmarks/suites/`` with ``run(args) -> dict`` (everything
+it measured, the machine included) and ``render(data) -> str`` (Markdown, every figure
+read from ``data``). ``benchmarks/write_results.py`` puts the rendered sections into
+RESULTS.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent
+RESULTS = ROOT / "results"
+SUITES = {
+    "real": "real people: the pose model, pose-seeded DON and every estimator on real "
+            "photos and videos (../shared/realdata), and on rendered clips",
+}
+
+
+def load(name: str):
+    """The suite module ``name``."""
+    sys.path.insert(0, str(ROOT))
+    try:
+        return importlib.import_module(f"suites.{name}")
+    finally:
+        sys.path.pop(0)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        description="Run a named benchmark suite: " + "; ".join(
+            f"{name}: {text}" for name, text in SUITES.items()))
+    parser.add_argument("suite", choices=sorted(SUITES))
+    parser.add_argument("--render", action="store_true",
+                        help="only render results/<suite>.md from results/<suite>.json")
+    parser.add_argument("--quick", action="store_true",
+                        help="a small run to check the suite works (figures not for RESULTS)")
+    args = parser.parse_args()
+    suite = load(args.suite)
+    data_path, report_path = RESULTS / f"{args.suite}.json", RESULTS / f"{args.suite}.md"
+    if args.render:
+        data = json.loads(data_path.read_text())
+    else:
+        data = suite.run(args)
+        if args.quick:
+            data_path, report_path = (data_path.with_suffix(".quick.json"),
+                                      report_path.with_suffix(".quick.md"))
+        RESULTS.mkdir(exist_ok=True)
+        data_path.write_text(json.dumps(data, indent=1) + "\n")
+        print(f"wrote {data_path}")
+    report_path.write_text(suite.render(data))
+    print(f"wrote {report_path}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,402 @@
+"""Suite ``real``: how the estimators do on real people.
+
+1. Photos: the 48 annotated COCO photos of ../shared/realdata/coco_mini. Per estimator
+   that reads a single frame (the pose model, the shipped CNNs): PCP@0.5 of the upper
+   and lower arm of the largest labelled person's labelled arm, and the elbow angle's
+   error (the forearm from the upper arm, deg), with 95% bootstrap intervals over photos
+   and the worst photos. A photo where the pose model finds nobody counts as wrong.
+2. Videos: the clips of ../shared/realdata/videos (no truth). The pose model on every
+   frame is the reference where it is confident; per estimator, as `imimic mimic` sets
+   it up with no flags: the angle's correlation with the reference and its RMSE after
+   removing the mean offset, on the reference's confident frames; how often it gives an
+   estimate there and anywhere (trust > 0); its seconds per frame as a ratio to OpenCV
+   decoding the same file, measured in the same run.
+3. 1080p: one clip upscaled and letterboxed to 1920x1080 and encoded as H.264 (libx264
+   through imageio-ffmpeg): decode, the pose model and pose-seeded DON per frame, and
+   `imimic mimic`'s frames/s on it.
+4. Rendered clips: the pose model on our renders of a person (seeds 6000-6029, a pool no
+   choice has touched), its angle error against exact truth where it finds the arm,
+   beside DON's and the CNN's on the same frames.
+
+Evaluation only: the real material is read in place, never copied. Without it, parts
+1-3 say so and only part 4 runs.
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+from imimic_gym.bench import machine
+from imimic_gym.clips.annotations import image_path, keypoints_to_angles, read_annotations
+from imimic_gym.clips.cache import load_clip
+from imimic_gym.clips.scenarios import get_scenario
+from imimic_gym.clips.video import VideoReader, stream_video
+from imimic_gym.estimators.pose import human_joint_ranges
+from imimic_gym.estimators.registry import build_estimator, get_estimator
+from imimic_gym.estimators.types import EstimatorContext
+from imimic_gym.evaluation import WARM_UP_S, clip_context, run_estimator
+from imimic_gym.metrics import bootstrap_interval, pcp, wrap_angle
+
+REALDATA = Path(__file__).resolve().parents[3] / "shared" / "realdata"
+VIDEO_ESTIMATORS = ("pose", "pose-don", "don", "don-paper", "mog2", "camshift", "cnn")
+RENDERED = ("default", "exp3-forearm-none", "exp3-forearm-low", "exp3-forearm-high")
+RENDERED_SEEDS = tuple(range(6000, 6030))
+WORST = 5
+
+
+def interval(values: Any, statistic: Any = np.mean) -> dict[str, Any]:
+    """The statistic of ``values`` with its 95% bootstrap interval (None for none)."""
+    values = np.asarray(values, dtype=np.float64)
+    if values.size == 0:
+        return {"value": None, "low": None, "high": None, "n": 0}
+    low, high = bootstrap_interval(values, statistic)
+    return {"value": float(statistic(values)), "low": low, "high": high, "n": int(values.size)}
+
+
+# 1. Photos ----------------------------------------------------------------------------
+def photos(quick: bool) -> dict[str, Any]:
+    coco = REALDATA / "coco_mini"
+    arms = read_annotations(coco / "person_keypoints.json")[: 8 if quick else None]
+    images = [cv2.cvtColor(cv2.imread(str(image_path(a, coco / "images"))), cv2.COLOR_BGR2RGB)
+              for a in arms]
+    truth = np.stack([a.keypoints for a in arms]).astype(np.float64)
+    predictions: dict[str, np.ndarray] = {}
+    from imimic_gym.estimators.pose_model import PoseModel
+
+    model = PoseModel(video=False)
+    found = []
+    for arm, image in zip(arms, images, strict=True):
+        body = model(image)
+        found.append(body is not None)
+        side = arm.side or "left"
+        found_arm = body.arm(side)[0] if body is not None else np.full((3, 2), np.nan)
+        predictions.setdefault("pose", []).append(found_arm)
+    from imimic_gym.estimators.cnn import default_checkpoint, load_model, predict_keypoints
+
+    for links in (1, 2):
+        network = load_model(default_checkpoint(links))
+        predictions[f"cnn (shipped, {links} link{'s' * (links > 1)})"] = predict_keypoints(
+            network, images)
+    rows = {}
+    for name, predicted in predictions.items():
+        predicted = np.nan_to_num(np.asarray(predicted, dtype=np.float64), nan=-1e6)
+        upper = [pcp(p[None], t[None], (0, 1)) for p, t in zip(predicted, truth, strict=True)]
+        lower = [pcp(p[None], t[None], (1, 2)) for p, t in zip(predicted, truth, strict=True)]
+        seen = np.array(found) if name == "pose" else np.ones(len(arms), bool)
+        error = np.degrees(np.abs(wrap_angle(keypoints_to_angles(predicted, 1)
+                                             - keypoints_to_angles(truth, 1))))[:, 0]
+        order = np.argsort(-np.where(seen, error, 181.0))[:WORST]
+        rows[name] = {
+            "pcp_upper": interval(upper), "pcp_lower": interval(lower),
+            "found": int(seen.sum()),
+            "elbow_error_deg_median": interval(error[seen], np.median),
+            "worst": [{"photo": arms[i].file_name,
+                       "elbow_error_deg": float(error[i]) if seen[i] else None}
+                      for i in order],
+        }
+        print(f"  photos {name:24s} PCP upper {np.mean(upper):.2f} lower {np.mean(lower):.2f}"
+              f", elbow median {np.median(error[seen]):.1f} deg", flush=True)
+    return {"photos": len(arms), "source": str(coco), "rows": rows}
+
+
+# 2. Videos ----------------------------------------------------------------------------
+def decode_seconds_per_frame(path: Path, repeats: int = 3) -> float:
+    """OpenCV decoding ``path`` (nothing else), seconds a frame, median of ``repeats``."""
+    times = []
+    for _ in range(repeats):
+        capture = cv2.VideoCapture(str(path))
+        try:
+            start, count = time.perf_counter(), 0
+            while capture.read()[0]:
+                count += 1
+            times.append((time.perf_counter() - start) / max(count, 1))
+        finally:
+            capture.release()
+    return statistics.median(times)
+
+
+def mimic_context(name: str, fps: float) -> EstimatorContext:
+    """The context `imimic mimic` gives estimator ``name`` with no flags, one link."""
+    ranges = (human_joint_ranges(1) if get_estimator(name).real_people
+              else ((-math.pi / 3, math.pi / 3),))
+    return EstimatorContext(fps=fps, link_parents=(-1,), joint_ranges=ranges,
+                            reference_direction=-math.pi / 2)
+
+
+def run_timed(name: str, frames: list[np.ndarray], fps: float) -> tuple[list, float, Any]:
+    """Estimator ``name``'s estimates over ``frames``, its seconds a frame, and it."""
+    estimator = build_estimator(name, mimic_context(name, fps))
+    estimator.reset()
+    estimates = [estimator.update(frames[0])]  # a model's one-off start is not per frame
+    start = time.perf_counter()
+    estimates += [estimator.update(frame) for frame in frames[1:]]
+    return estimates, (time.perf_counter() - start) / max(len(frames) - 1, 1), estimator
+
+
+def agreement(angles: np.ndarray, reference: np.ndarray) -> dict[str, float | None]:
+    """Correlation and RMSE after the mean offset (deg) of two angle series (rad)."""
+    if len(angles) < 3:
+        return {"correlation": None, "rmse_after_offset_deg": None, "offset_deg": None}
+    difference = wrap_angle(angles - reference)
+    offset = math.atan2(np.mean(np.sin(difference)), np.mean(np.cos(difference)))
+    rmse = math.degrees(math.sqrt(np.mean(wrap_angle(difference - offset) ** 2)))
+    a, r = np.unwrap(angles), np.unwrap(reference)
+    correlation = (float(np.corrcoef(a, r)[0, 1]) if np.std(a) > 0 and np.std(r) > 0
+                   else None)
+    return {"correlation": correlation, "rmse_after_offset_deg": rmse,
+            "offset_deg": math.degrees(offset)}
+
+
+def videos(quick: bool) -> dict[str, Any]:
+    rows = []
+    for path in sorted((REALDATA / "videos").glob("*.mp4")):
+        reader = VideoReader(path)
+        frames, fps = list(reader), float(reader.fps)
+        frames = frames[: 40 if quick else None]
+        decode = decode_seconds_per_frame(path)
+        reference, _, _ = run_timed("pose", frames, fps)
+        confident = np.array([e.trust > 0 for e in reference])
+        ref_angles = np.array([e.angles[0] for e in reference])
+        for name in VIDEO_ESTIMATORS:
+            estimates, seconds, estimator = run_timed(name, frames, fps)
+            angles = np.array([e.angles[0] for e in estimates])
+            gives = np.array([e.trust > 0 for e in estimates])
+            both = confident & gives
+            row = {"video": path.name, "resolution": f"{frames[0].shape[1]}x{frames[0].shape[0]}",
+                   "frames": len(frames), "estimator": name,
+                   "reference_confident_frames": int(confident.sum()),
+                   "estimate_where_reference_confident": (float(gives[confident].mean())
+                                                          if confident.any() else None),
+                   "no_output_fraction": float(1 - gives.mean()),
+                   "seconds_per_frame": seconds, "decode_seconds_per_frame": decode,
+                   "ratio_to_decode": seconds / decode,
+                   **agreement(angles[both], ref_angles[both])}
+            if hasattr(estimator, "pose_frames"):
+                row["pose_frames"] = estimator.pose_frames
+            rows.append(row)
+            corr = row["correlation"]
+            print(f"  {path.name:20s} {name:9s} corr {corr if corr is None else round(corr, 2)}"
+                  f", rmse {row['rmse_after_offset_deg']}, covers "
+                  f"{row['estimate_where_reference_confident']}, x{row['ratio_to_decode']:.1f} "
+                  "decode", flush=True)
+    return {"rows": rows}
+
+
+# 3. 1080p -----------------------------------------------------------------------------
+def make_1080p(source: Path, out: Path) -> Path:
+    """``source`` scaled to 1080 rows, letterboxed to 1920x1080, H.264 (libx264, CRF 18)."""
+    import imageio_ffmpeg
+
+    subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-loglevel", "error", "-y", "-i",
+                    str(source), "-vf", "scale=-2:1080,pad=1920:1080:(ow-iw)/2:0",
+                    "-c:v", "libx264", "-crf", "18", "-pix_fmt", "yuv420p", str(out)],
+                   check=True)
+    return out
+
+
+def hd(quick: bool) -> dict[str, Any]:
+    from imimic_gym.mimic import run_mimic
+
+    work = Path(tempfile.mkdtemp(prefix="imimic_real_"))
+    path = make_1080p(REALDATA / "videos" / "ta_chi.mp4", work / "ta_chi_1080p.mp4")
+    decode = decode_seconds_per_frame(path)
+    with VideoReader(path).open() as reader:
+        fps = float(reader.fps)
+    result: dict[str, Any] = {"clip": "ta_chi.mp4 at 1920x1080 (H.264, CRF 18)",
+                              "decode_seconds_per_frame": decode}
+    angles = {}
+    for name in ("pose", "pose-don"):
+        estimator = build_estimator(name, mimic_context(name, fps))
+        estimator.reset()
+        spent, estimates = 0.0, []
+        for i, frame in enumerate(VideoReader(path)):
+            if quick and i >= 40:
+                break
+            start = time.perf_counter()
+            estimates.append(estimator.update(frame))
+            if i:  # the model's one-off start is not a frame's cost
+                spent += time.perf_counter() - start
+        angles[name] = (np.array([e.angles[0] for e in estimates]),
+                        np.array([e.trust > 0 for e in estimates]))
+        per_frame = spent / max(len(estimates) - 1, 1)
+        result[name] = {"seconds_per_frame": per_frame, "ratio_to_decode": per_frame / decode,
+                        "pose_frames": getattr(estimator, "pose_frames", len(estimates))}
+        summary = run_mimic(stream_video(path, max_seconds=1.5 if quick else None,
+                                         joint_ranges=human_joint_ranges(1)),
+                            work / name, estimator=name, progress=False)
+        result[name]["mimic_frames_per_s"] = summary["frames_per_s"]
+        print(f"  1080p {name:9s} {result[name]['ratio_to_decode']:.1f}x decode, mimic "
+              f"{summary['frames_per_s']:.1f} frames/s", flush=True)
+    (a, seen), (b, gives) = angles["pose"], angles["pose-don"]
+    both = seen & gives
+    difference = np.degrees(np.abs(wrap_angle(b[both] - a[both])))
+    result["pose_don_vs_pose"] = {
+        "rmse_deg": float(np.sqrt(np.mean(difference ** 2))) if both.any() else None,
+        "max_deg": float(difference.max()) if both.any() else None,
+        "frames": int(both.sum())}
+    return result
+
+
+# 4. Rendered clips --------------------------------------------------------------------
+def rendered(quick: bool) -> dict[str, Any]:
+    seeds = RENDERED_SEEDS[:3] if quick else RENDERED_SEEDS
+    out = {}
+    for scenario in RENDERED:
+        clips = []
+        for seed in seeds:
+            spec = get_scenario(scenario, seed=seed)
+            clip = load_clip(spec, progress=False)
+            context = clip_context(spec, clip)
+            truth = clip.truth.angles[:, 0]
+            runs = {name: run_estimator(build_estimator(name, context), clip.frames)
+                    for name in ("pose", "don", "cnn")}
+            found = np.array([e.trust > 0 for e in runs["pose"]])
+            found[: round(WARM_UP_S * clip.fps)] = False  # DON's warm-up, for all three
+            row = {"seed": seed, "found_fraction": float(found.mean())}
+            for name, estimates in runs.items():
+                angles = np.array([e.angles[0] for e in estimates])
+                row[f"{name}_rmse_deg"] = (float(np.degrees(np.sqrt(np.mean(
+                    wrap_angle(angles[found] - truth[found]) ** 2)))) if found.any() else None)
+            clips.append(row)
+        out[scenario] = {
+            "seeds": [seeds[0], seeds[-1]],
+            "found_fraction": interval([c["found_fraction"] for c in clips]),
+            **{f"{name}_rmse_deg": interval([c[f"{name}_rmse_deg"] for c in clips
+                                             if c[f"{name}_rmse_deg"] is not None])
+               for name in ("pose", "don", "cnn")},
+            "worst_pose": sorted(clips, key=lambda c: -(c["pose_rmse_deg"] or 0))[:WORST],
+        }
+        print(f"  rendered {scenario:18s} found {out[scenario]['found_fraction']['value']:.2f}"
+              f", RMSE pose {out[scenario]['pose_rmse_deg']['value']:.1f} don "
+              f"{out[scenario]['don_rmse_deg']['value']:.1f} cnn "
+              f"{out[scenario]['cnn_rmse_deg']['value']:.1f}", flush=True)
+    return out
+
+
+def run(args: Any) -> dict[str, Any]:
+    data: dict[str, Any] = {"machine": machine(), "quick": bool(args.quick)}
+    if REALDATA.is_dir():
+        print(f"reading real material from {REALDATA} (evaluation only)")
+        data["photos"] = photos(args.quick)
+        data["videos"] = videos(args.quick)
+        data["hd"] = hd(args.quick)
+    else:
+        print(f"no real material at {REALDATA}: photos, videos and 1080p not measured")
+    data["rendered"] = rendered(args.quick)
+    return data
+
+
+# The report ---------------------------------------------------------------------------
+def _ci(cell: dict[str, Any] | None, digits: int = 2, scale: float = 1.0) -> str:
+    """"value (low-high)" of an `interval` cell."""
+    if not cell or cell.get("value") is None:
+        return "-"
+    return (f"{scale * cell['value']:.{digits}f} ({scale * cell['low']:.{digits}f}-"
+            f"{scale * cell['high']:.{digits}f})")
+
+
+def _num(value: Any, digits: int = 2) -> str:
+    return "-" if value is None else f"{value:.{digits}f}"
+
+
+def _table(head: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    return "\n".join(lines + ["| " + " | ".join(row) + " |" for row in rows])
+
+
+QUICK = "**A quick run (`--quick`): a few photos, frames and clips; not the reported figures.**"
+
+
+def _worst_photo(worst: dict[str, Any]) -> str:
+    error = worst["elbow_error_deg"]
+    return f"`{worst['photo']}` ({'none found' if error is None else f'{error:.0f}'})"
+
+
+def render(data: dict[str, Any]) -> str:
+    m = data["machine"]
+    out = [f"""## Real people: the pose model, pose-seeded DON and every estimator (suite `real`)
+
+Command: `.venv/bin/python benchmarks/run.py real` (JSON: `benchmarks/results/real.json`;
+this section is rendered from it). Machine: {m['cpu']}, {m['cores']} cores. 95% intervals
+are percentile bootstraps (2000 resamples, seed 0) over photos or clips.
+{QUICK if data.get("quick") else ""}"""]
+    photos_ = data.get("photos")
+    if photos_:
+        out.append(f"""### Photos: {photos_['photos']} COCO photos (`../shared/realdata/coco_mini`)
+
+The largest labelled person's labelled arm (their left where all three keypoints are
+labelled, else their right), PCP@0.5 (both ends within half the limb's true length), and
+the elbow angle (forearm from upper arm) error where the estimator gave keypoints. The
+pose model reads each photo alone (`PoseModel(video=False)`) and gives that same side of
+the person it finds; a photo where it finds nobody counts as wrong. DON, MOG2 and
+CamShift read motion and cannot score a single photo.
+
+""" + _table(["estimator", "PCP upper arm", "PCP lower arm", "photos with keypoints",
+              "elbow error, median (deg)", "worst photos (elbow error, deg)"],
+             [[name, _ci(r["pcp_upper"]), _ci(r["pcp_lower"]), str(r["found"]),
+               _ci(r["elbow_error_deg_median"], 1),
+               ", ".join(_worst_photo(w) for w in r["worst"][:3])]
+              for name, r in photos_["rows"].items()]))
+    videos_ = data.get("videos")
+    if videos_:
+        out.append("""### Videos (`../shared/realdata/videos`, no truth)
+
+The reference is the pose model on every frame, where it is confident (its shoulder,
+elbow and wrist at 0.5 or more). Each estimator runs as `imimic mimic` sets it up with no
+flags (one link; the reference link down the image; a human arm's range for the pose
+estimators, the servo's -60..60 for the others). "Covers": the share of the reference's
+confident frames on which the estimator gave an estimate (trust > 0); "no output": the
+share of all frames without one. Correlation and RMSE after the mean offset are on the
+frames where both gave one. Speed: the estimator's seconds per frame on decoded frames,
+over OpenCV's decoding of the same file in the same run (median of 3).
+
+""" + _table(["video", "estimator", "covers", "no output", "correlation",
+              "RMSE after offset (deg)", "time / decode"],
+             [[f"`{r['video']}` ({r['resolution']}, {r['frames']} frames)", r["estimator"],
+               _num(r["estimate_where_reference_confident"]), _num(r["no_output_fraction"]),
+               _num(r["correlation"]), _num(r["rmse_after_offset_deg"], 1),
+               f"{r['ratio_to_decode']:.1f}"]
+              for r in videos_["rows"]]))
+    hd_ = data.get("hd")
+    if hd_:
+        versus = hd_["pose_don_vs_pose"]
+        out.append(f"""### 1920x1080
+
+{hd_['clip']}: OpenCV decodes a frame in {1000 * hd_['decode_seconds_per_frame']:.1f} ms.
+
+""" + _table(["estimator", "ms per frame", "x decode", "frames the pose model read",
+              "`imimic mimic` frames/s"],
+             [[name, f"{1000 * hd_[name]['seconds_per_frame']:.1f}",
+               f"{hd_[name]['ratio_to_decode']:.1f}", str(hd_[name]["pose_frames"]),
+               f"{hd_[name]['mimic_frames_per_s']:.1f}"] for name in ("pose", "pose-don")])
+            + f"""
+
+Pose-seeded DON against the pose model on every frame of that clip: RMSE
+{_num(versus['rmse_deg'], 1)} deg, largest {_num(versus['max_deg'], 1)} deg, over
+{versus['frames']} frames where both read the arm.""")
+    rendered_ = data.get("rendered", {})
+    if rendered_:
+        out.append("""### Our rendered person, against exact truth
+
+Seeds 6000-6029 of each scenario (30 clips, a pool no choice has touched). "Found": the
+share of frames where the pose model reads the moving arm confidently. The RMSE (deg,
+mean over clips) of each estimator's forearm angle is on those frames only, after DON's
+0.5 s warm-up, so the three are compared on the same frames.
+
+""" + _table(["scenario", "found", "pose RMSE", "DON RMSE", "CNN RMSE",
+              "pose's worst clips (seed: RMSE)"],
+             [[f"`{name}`", _ci(r["found_fraction"]), _ci(r["pose_rmse_deg"], 1),
+               _ci(r["don_rmse_deg"], 1), _ci(r["cnn_rmse_deg"], 1),
+               ", ".join(f"{c['seed']}: {_num(c['pose_rmse_deg'], 0)}"
+                         for c in r["worst_pose"][:3])]
+              for name, r in rendered_.items()]))
+    return "\n\n".join(out) + "\n"

@@ -1,0 +1,133 @@
+"""Pose-seeded DON on a synthetic arm whose keypoints a scripted pose model reports: DON
+is seeded on the elbow, carries the forearm between pose frames, and is seeded again
+when the elbow moves; nobody in view holds."""
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from imimic_gym.estimators.pose_don import CROP, PoseSeededDON
+from imimic_gym.estimators.pose_model import KEYPOINTS, BodyKeypoints
+
+FRAMES = 90
+UPPER, FOREARM = 50.0, 45.0  # px
+
+
+def elbow_at(t: int) -> np.ndarray:
+    """The elbow stays, then the person steps right and down at frame 45."""
+    return np.array([150.0, 110.0]) if t < 45 else np.array([185.0, 125.0])
+
+
+def flexion(t: int) -> float:
+    """The forearm's angle from the upper arm (rad): 60 +- 40 degrees."""
+    return math.radians(60.0 + 40.0 * math.sin(2 * math.pi * t / 30))
+
+
+def drifting(t: int) -> np.ndarray:
+    """An elbow that sways 9 px (0.2 forearm lengths) to the right over the clip."""
+    return np.array([150.0 + 0.1 * t, 110.0])
+
+
+def arm(t: int, elbow_of=elbow_at) -> np.ndarray:
+    """Shoulder, elbow, wrist (3, 2) px: the upper arm hangs straight down."""
+    elbow = elbow_of(t)
+    direction = -math.pi / 2 + flexion(t)
+    wrist = elbow + FOREARM * np.array([math.cos(direction), -math.sin(direction)])
+    return np.array([elbow - [0.0, UPPER], elbow, wrist])
+
+
+def frame(t: int, elbow_of=elbow_at) -> np.ndarray:
+    picture = np.full((240, 320, 3), 40, np.uint8)
+    shoulder, elbow, wrist = (tuple(int(v) for v in np.rint(p)) for p in arm(t, elbow_of))
+    cv2.line(picture, shoulder, elbow, (90, 90, 200), 9, cv2.LINE_AA)
+    cv2.line(picture, elbow, wrist, (230, 190, 150), 9, cv2.LINE_AA)
+    return picture
+
+
+class ScriptedModel:
+    """Reports the true keypoints of the frame it is shown (None: nobody), and counts."""
+
+    def __init__(self, nobody: set[int] = frozenset(), elbow_of=elbow_at) -> None:
+        self.nobody, self.t, self.calls, self.elbow_of = nobody, 0, [], elbow_of
+
+    def reset(self) -> None:
+        self.calls = []
+
+    def __call__(self, picture: np.ndarray) -> BodyKeypoints | None:
+        t = self.t
+        self.calls.append(t)
+        if t in self.nobody:
+            return None
+        points = dict(zip(("left_shoulder", "left_elbow", "left_wrist"),
+                          arm(t, self.elbow_of), strict=True))
+        points.update({f"right_{j}": np.array([20.0, 20.0 + 10 * k])
+                       for k, j in enumerate(("shoulder", "elbow", "wrist", "hand"))})
+        points.update(left_hand=points["left_wrist"], left_hip=[150.0, 200.0],
+                      right_hip=[120.0, 200.0])
+        confidence = np.array([0.1 if name.startswith("right") else 0.95 for name in KEYPOINTS])
+        return BodyKeypoints(np.array([points[name] for name in KEYPOINTS], float), confidence)
+
+
+def run(model: ScriptedModel, **params) -> tuple[PoseSeededDON, list]:
+    estimator = PoseSeededDON(fps=30.0, model=model, arm="left", **params)
+    estimator.reset()
+    out, origins = [], []
+    for t in range(FRAMES):
+        model.t = t
+        out.append(estimator.update(frame(t, model.elbow_of)))
+        origins.append(estimator.origin.copy())
+    return estimator, out, origins
+
+
+def test_don_carries_the_forearm_between_pose_frames_and_is_reseeded_when_the_elbow_moves(
+        ) -> None:
+    model = ScriptedModel()
+    estimator, estimates, origins = run(model, pose_every=3)
+    truth = np.degrees([flexion(t) for t in range(FRAMES)])
+    angles = np.degrees([e.angles[0] for e in estimates])
+    # Seeded on the elbow: the crop is centred there, REACH forearm lengths a side.
+    assert origins[5] == pytest.approx(elbow_at(5) - estimator.side / 2)
+    assert estimator.side == pytest.approx(3.2 * FOREARM)
+    # The person steps at frame 45: a new crop about the new elbow within a pose frame.
+    assert origins[50] == pytest.approx(elbow_at(50) - estimator.side / 2)
+    # DON read frames the pose model did not: fewer pose calls than frames once it runs.
+    from_don = sorted(set(range(FRAMES)) - set(model.calls))
+    assert len(from_don) > 20 and any(t > 60 for t in from_don)
+    # Every frame's angle follows the forearm, DON's as well as the pose model's.
+    error = np.abs(angles - truth)
+    assert error.max() < 8.0 and error[from_don].mean() < 4.0
+    assert all(e.trust > 0.4 and e.keypoints.shape == (2, 2) for e in estimates)
+    # Keypoints drawn in input pixels: DON's pivot is the elbow.
+    for t in from_don:
+        assert np.hypot(*(estimates[t].keypoints[0] - elbow_at(t))) < 2.0
+    assert CROP == 120
+
+
+def test_a_swaying_elbow_moves_dons_pivot_without_a_new_seed() -> None:
+    model = ScriptedModel(elbow_of=drifting)
+    _, estimates, origins = run(model, pose_every=3)
+    assert all(np.array_equal(origin, origins[1]) for origin in origins[1:])  # one crop
+    from_don = sorted(set(range(1, FRAMES)) - set(model.calls))
+    late = [t for t in from_don if t > 60]
+    assert late and all(np.hypot(*(estimates[t].keypoints[0] - drifting(t))) < 1.5
+                        for t in late)
+    error = np.degrees([abs(estimates[t].angles[0] - flexion(t)) for t in from_don])
+    assert error.mean() < 4.0
+
+
+def test_nobody_in_view_holds_and_the_arm_is_found_again() -> None:
+    model = ScriptedModel(nobody=set(range(30, 40)))
+    _, estimates, _ = run(model, pose_every=3)
+    held = [e for t, e in enumerate(estimates) if 30 <= t < 40]
+    assert all(e.trust == 0.0 and e.keypoints is None for e in held)
+    assert len({float(e.angles[0]) for e in held}) == 1
+    assert all(t in model.calls for t in range(31, 40))  # the model asked every frame
+    assert estimates[45].trust > 0.4
+    assert abs(math.degrees(estimates[45].angles[0] - flexion(45))) < 8.0
+
+
+def test_pose_every_is_checked() -> None:
+    with pytest.raises(ValueError, match="pose_every must be a whole number of frames"):
+        PoseSeededDON(pose_every=0, model=ScriptedModel())
