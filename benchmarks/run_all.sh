@@ -21,8 +21,9 @@ mkdir -p benchmarks/results
     --estimator don --episodes 30 --first-seed 2000 --json benchmarks/results/eval_fresh.json
 "$BIN/python" benchmarks/don_known_pivot.py --json benchmarks/results/don_known_pivot.json
 "$BIN/python" benchmarks/don_error_sources.py --json benchmarks/results/don_error_sources.json
-# Real footage (issue 6): skipped with a message when ../shared/realdata is absent.
-"$BIN/python" benchmarks/real_footage.py --json benchmarks/results/real_footage.json
+# Real people (the pose model, pose-seeded DON, every estimator on real photos and videos;
+# the real parts are skipped with a message when ../shared/realdata is absent).
+"$BIN/python" benchmarks/run.py real
 # CNN + refiner (issue 4): shipped checkpoints, learning curve, real photos, eval, speed.
 "$BIN/python" training/train_cnn.py --links 1 --out checkpoints/cnn_arm1.pt \
     --json benchmarks/results/cnn_train_arm1.json

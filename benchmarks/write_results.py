@@ -334,89 +334,10 @@ def fresh_clips(fresh: list[dict], held_out) -> str:
 
 
 def real_footage_section() -> str:
-    """Issue 6: `imimic mimic --video` on the real clips (read from ../shared/realdata)."""
-    path = RESULTS / "real_footage.json"
-    if not path.exists():
-        return ""
-    data = json.loads(path.read_text())
-    rows = {(r["clip"], r["setting"]): r for r in data["rows"]}
-    tai = rows[("ta_chi.mp4", "defaults")]
-    slp, given = rows[("slp_test_video.mp4", "defaults")], rows[("slp_test_video.mp4", "elbow given")]
-    m = data["machine"]
-    return f"""
-## Real footage: `imimic mimic --video` (issue 6)
-
-Command: `.venv/bin/python benchmarks/real_footage.py --json benchmarks/results/real_footage.json
---frames <dir>` (it runs `run_mimic`, the loop behind `imimic mimic --video`). Machine: {m['cpu']},
-{m['cores']} cores, shared with another job while measured. The clips are the two videos in
-`../shared/realdata/videos` (evaluation only, not in the repository; see its README); there is no
-ground truth for them, so what DON got right and wrong below comes from looking at frames of the
-side-by-side videos, and the table's estimate columns describe its output, not its error.
-
-Speed. "mimic" is the whole loop per frame: read and decode, DON, the PD controller, the physics,
-rendering the robot at the footage's size, writing the side-by-side mp4 and the CSV row; frames/s
-from the first frame done to the last. The reference, measured in the same run, is plain OpenCV
-decoding of the same file (`VideoCapture.read`, median of 3): no loop over the footage can run
-faster. Latency: from asking for a frame to the joint command being ready (read, decode, DON,
-control), median.
-
-{table(["clip", "setting", "resolution", "frames", "mimic frames/s (absolute)", "decode frames/s (absolute)", "mimic / decode", "x real time", "latency ms (median, p95)"],
-       [[f"`{r['clip']}`", r["setting"], r["resolution"], str(r["frames"]), f"{r['mimic_frames_per_s']:.0f}",
-         f"{r['decode_frames_per_s']:.0f}", f"{r['ratio_to_decode']:.3f}", f"{r['realtime_factor']:.1f}",
-         f"{r['latency_ms_median']:.1f}, {r['latency_ms_p95']:.1f}"] for r in data["rows"]])}
-
-Every run is faster than the footage's own frame rate (x real time above 1), and the estimate is
-ready a few milliseconds after the frame is read. Most of each frame's time lies outside that
-latency window: rendering the robot view at the footage's size and encoding the side-by-side
-video (the 540x720 clip makes a 1080x720 video); that split is inferred from latency against
-frame period, not profiled.
-
-What DON's estimate did ("defaults": no flags, so the reference link points down the image and
-the joint spans -60..60 degrees; "elbow given": `--pivot 80 700 --reference-direction 0
---joint-range 0 120`, read off the first frame):
-
-{table(["clip", "setting", "mean eta", "first tracked frame", "angle range (deg)", "outside joint range", "largest jump (deg/frame)"],
-       [[f"`{r['clip']}`", r["setting"], f"{r['mean_trust']:.2f}", str(r["first_tracked_frame"]),
-         f"{r['angle_min_deg']:.0f} .. {r['angle_max_deg']:.0f}", f"{100 * r['outside_joint_range_fraction']:.0f}%",
-         f"{r['max_jump_deg']:.0f}"] for r in data["rows"]])}
-
-"First tracked frame" is the first with a non-zero angular velocity, i.e. once DON has a pivot.
-DON reports no angle past the joint's limits (`geometry.within_range`), so "outside joint
-range" is 0 by construction; before that rule 13% and 14% of the defaults' frames were past
-a limit, and an angle range or a largest jump that spans the whole range is DON holding one
-limit, then the other.
-
-Right:
-- `slp_test_video.mp4` with the elbow given: while the hand rises to face height and comes
-  back, the drawn link lies along the forearm in most of the frames looked at (it picks the
-  moving forearm out of a cluttered room with string lights), and the robot's elbow moves with it
-  within {given['angle_min_deg']:.0f}..{given['angle_max_deg']:.0f} degrees, inside the joint range in every frame.
-- Nothing crashed or produced NaN on either clip, through motion blur, a hand moving towards the
-  camera and a whole body moving; the loop ran faster than real time throughout.
-
-Wrong:
-- `ta_chi.mp4` (the whole body moves, both arms at once): DON's model, one link turning about a
-  fixed pivot, does not hold. For {tai['first_tracked_frame']} of {tai['frames']} frames it has no pivot and outputs the
-  axis of the whole moving body (the robot jumps between a few poses). Its pivot lands on the
-  upper body; before re-seeking (`DON(reseek=True)`) it stayed there, with the "link" drawn down
-  the body's side or out sideways while the arms were raised overhead. Now no place explains
-  the moving edges for long, and the pivot moves three times after frame 180 (input px
-  (231, 101) at frame 180, (165, 70) at 210, (163, 162) at 270, (180, 152) at the end;
-  printed by running DON on the clip, not looked at frame by frame). The arms are never
-  tracked.
-- `slp_test_video.mp4` with defaults: the pivot lands near the top right of the frame, among the
-  string lights (why there was not traced), so the drawn link runs from there down across the frame;
-  the angle ({slp['angle_min_deg']:.0f} to {slp['angle_max_deg']:.0f} degrees) moves when the hand moves but does not measure the forearm.
-- With the elbow given, the angle is noisy from frame to frame (jumps up to {given['max_jump_deg']:.0f} degrees
-  between frames), at the start of the rise the link points the wrong way for some frames, and
-  once the arm is back down and still DON holds its last reading (no motion, nothing to update)
-  instead of the resting forearm. The trust factor is near 0 for much of the rise (mean
-  {given['mean_trust']:.2f}): the forearm comes towards the camera, its visible size changes, and eta reads that as
-  occlusion.
-- Real footage needs its geometry: the defaults (reference down the image, a 120-degree range)
-  suit a servo or a hanging forearm filmed side-on, not a webcam view of a person reaching.
-"""
-
+    """Real people: the `real` suite's report, rendered by `benchmarks/run.py real` from its
+    JSON (results/real.json)."""
+    path = RESULTS / "real.md"
+    return "\n" + path.read_text() if path.exists() else ""
 
 if __name__ == "__main__":
     main()

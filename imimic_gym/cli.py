@@ -1,4 +1,4 @@
-"""The `imimic` command: demo, clip, scenarios, eval, cache, bench, mimic."""
+"""The `imimic` command: demo, clip, scenarios, eval, cache, bench, mimic, label."""
 
 from __future__ import annotations
 
@@ -141,6 +141,8 @@ def cmd_clip(args: argparse.Namespace) -> int:
 def cmd_eval(args: argparse.Namespace) -> int:
     from imimic_gym.evaluation import evaluate_estimator
 
+    if args.photos or args.images:
+        return _cmd_eval_photos(args)
     if args.paper or args.controller:
         return _cmd_eval_suite(args)
     from imimic_gym.estimators.registry import get_estimator
@@ -170,6 +172,36 @@ def cmd_eval(args: argparse.Namespace) -> int:
                   f"settled {mean['rmse_deg_settled']:6.2f} deg, lag "
                   f"{mean['lag_frames']:5.1f} frames, eta {mean['mean_trust']:.2f}{occluded}",
                   flush=True)
+    _save_json(args.json, results)
+    return 0
+
+
+def _cmd_eval_photos(args: argparse.Namespace) -> int:
+    """`imimic eval --photos F --images DIR`: PCP and elbow error on annotated photos."""
+    from imimic_gym.clips.annotations import AnnotationError
+    from imimic_gym.evaluation import evaluate_photos
+
+    if not (args.photos and args.images):
+        raise SystemExit("imimic eval: --photos (a COCO-keypoints file) and --images (the "
+                         "folder of its photos) go together")
+    results = []
+    for estimator in args.estimator:
+        try:
+            result = evaluate_photos(args.photos, args.images, estimator)
+        except (ValueError, AnnotationError, FileNotFoundError) as error:
+            raise SystemExit(f"imimic eval: {error}") from error
+
+        def cell(item: dict) -> str:
+            if item["value"] is None:
+                return "-"
+            return f"{item['value']:.2f} ({item['low']:.2f}-{item['high']:.2f})"
+
+        print(f"{estimator:10s} PCP@0.5 upper {cell(result['pcp_upper'])}, lower "
+              f"{cell(result['pcp_lower'])}; elbow error median "
+              f"{cell(result['elbow_error_deg_median'])} deg; keypoints on "
+              f"{result['found']} of {result['photos']} photos (95% bootstrap intervals)",
+              flush=True)
+        results.append(result)
     _save_json(args.json, results)
     return 0
 
@@ -388,6 +420,50 @@ def _mimic(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_label(args: argparse.Namespace) -> int:
+    """`imimic label`: the pose model's labels of a video, as COCO keypoints."""
+    from imimic_gym.clips.video import VideoFormatError, VideoOpenError
+    from imimic_gym.labels import label_video
+
+    if not 0.0 <= args.min_confidence <= 1.0:
+        raise SystemExit(f"imimic label: --min-confidence is in [0, 1], got "
+                         f"{args.min_confidence}")
+    try:
+        summary = label_video(args.video, args.out, arm=args.arm,
+                              min_confidence=args.min_confidence)
+    except (VideoOpenError, VideoFormatError, OSError) as err:
+        print(f"imimic label: {err}", file=sys.stderr)
+        return 2
+    print(f"labelled {summary['labelled']} of {summary['frames']} frames: wrote "
+          f"{summary['labels']} and {summary['images']}/ (train: python training/train_cnn.py "
+          f"--annotations {summary['labels']} --images {summary['images']})")
+    return 0
+
+
+def _add_label(sub: argparse._SubParsersAction) -> None:
+    label = sub.add_parser(
+        "label", help="label a video's arm with the pose model (COCO keypoints, for CVAT, "
+                      "Label Studio and train_cnn.py)",
+        description="Run the pretrained pose model over a video and write --out/images/ "
+                    "(every frame as JPEG) and --out/labels.json (COCO keypoints, one 'arm' "
+                    "category: shoulder, elbow, wrist; an annotation on each frame where "
+                    "all three reach --min-confidence, the others left unlabelled). CVAT and "
+                    "Label Studio import it for a person to correct; training/train_cnn.py "
+                    "--annotations --images trains the CNN on it; ImitateVideo-v0("
+                    "clip=VIDEO, annotations=labels.json) scores on it.",
+    )
+    label.add_argument("--video", required=True, metavar="FILE",
+                       help="a recorded video (anything OpenCV reads) or an image pattern")
+    label.add_argument("--out", default="labels_out", help="output folder (default: "
+                                                           "%(default)s)")
+    label.add_argument("--arm", default="auto", choices=("auto", "left", "right"),
+                       help="the person's arm to label (default: auto, the one that moves)")
+    label.add_argument("--min-confidence", type=float, default=0.5,
+                       help="label a frame when shoulder, elbow and wrist all reach this "
+                            "confidence (default: %(default)s)")
+    label.set_defaults(func=cmd_label)
+
+
 def _add_mimic(sub: argparse._SubParsersAction) -> None:
     mimic = sub.add_parser(
         "mimic", help="estimator + controller on a video file or live camera; drives the robot",
@@ -538,6 +614,13 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--first-seed", type=int, default=1000,
                           help="first held-out clip seed (default: %(default)s)")
     evaluate.add_argument("--json", default=None, help="also write the results to this file")
+    evaluate.add_argument("--photos", default=None, metavar="ANNOTATIONS",
+                          help="score on annotated photos instead: a COCO-keypoints file "
+                               "(persons or arms); with --images; estimators that read a "
+                               "frame alone (pose, cnn): PCP@0.5 of upper and lower arm and "
+                               "the elbow-angle error")
+    evaluate.add_argument("--images", default=None, metavar="DIR",
+                          help="the folder of --photos' images")
     evaluate.add_argument("--controller", nargs="+", default=None, choices=tuple(CONTROLLERS),
                           help="run the tracking suite with these controllers: oracle (true "
                                "angles, the upper bound), position (the paper's servo), "
@@ -586,6 +669,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--repeats", type=int, default=5, help="alternating timed runs per env")
     bench.set_defaults(func=cmd_bench)
     _add_mimic(sub)
+    _add_label(sub)
     return parser
 
 

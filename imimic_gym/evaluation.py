@@ -7,6 +7,8 @@ torques are not scored here).
 
 from __future__ import annotations
 
+import math
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -15,11 +17,11 @@ from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import ClipSpec, get_scenario
 from imimic_gym.clips.types import Clip
 from imimic_gym.envs.imitate_video import MODALITIES, depth_to_frame
-from imimic_gym.estimators.registry import build_estimator, get_estimator
+from imimic_gym.estimators.registry import ESTIMATORS, build_estimator, get_estimator
 from imimic_gym.estimators.types import EstimatorContext
 from imimic_gym.metrics import OCCLUDED, angle_rmse_deg, lag_frames
 
-__all__ = ["WARM_UP_S", "clip_context", "evaluate_estimator"]
+__all__ = ["WARM_UP_S", "clip_context", "evaluate_estimator", "evaluate_photos"]
 
 WARM_UP_S = 0.5  # frame-differencing estimators see nothing until the arm has moved
 PREDICTION_ON = 0.3  # the trust threshold used for "with the prediction layer"
@@ -105,3 +107,82 @@ def run_estimator(estimator: Any, frames: Any) -> list:
     """Every estimate of ``estimator`` over ``frames`` (T, H, W, 3) uint8, from a reset."""
     estimator.reset()
     return [estimator.update(frame) for frame in frames]
+
+
+def evaluate_photos(annotations: str | Path, images: str | Path, estimator: str,
+                    **params: Any) -> dict[str, Any]:
+    """Score ``estimator`` (one that reads single frames: the registry's ``photos``) on
+    annotated photos: the arm `clips.annotations.read_annotations` takes from each (the
+    largest labelled person's, their left where complete, else their right).
+
+    Each photo is read from a fresh start (``reset``), as a two-link arm so that the
+    estimate's keypoints are shoulder, elbow and wrist; an estimator that can choose the
+    arm (``arm``) is told the labelled side, and the pose model scores every position it
+    gives (``min_confidence=0``, unless ``params`` say otherwise). A photo where it gives
+    no keypoints counts as wrong.
+
+    Returns PCP@0.5 of the upper and lower arm and the median elbow-angle error (deg,
+    the forearm from the upper arm, over photos with keypoints), each with its 95%
+    bootstrap interval, and one row per photo.
+    """
+    import cv2
+
+    from imimic_gym.clips.annotations import image_path, keypoints_to_angles, read_annotations
+    from imimic_gym.estimators.pose import human_joint_ranges
+    from imimic_gym.metrics import bootstrap_interval, pcp, wrap_angle
+
+    entry = get_estimator(estimator)
+    if not entry.photos:
+        raise ValueError(f"estimator {estimator!r} reads motion between frames and cannot "
+                         "score single photos; use one that reads each frame alone ("
+                         f"{', '.join(n for n, e in ESTIMATORS.items() if e.photos)})")
+    arms = read_annotations(annotations)
+    if not arms:
+        raise ValueError(f"{annotations}: no photo has a complete labelled arm")
+    context = EstimatorContext(fps=30.0, link_parents=(-1, 0),
+                               joint_ranges=human_joint_ranges(2),
+                               reference_direction=-math.pi / 2)
+    if "min_confidence" in entry.params:
+        params = {"min_confidence": 0.0, **params}
+    rows, readers = [], {}  # one estimator per arm side
+    for arm in arms:
+        path = image_path(arm, images)
+        picture = cv2.imread(str(path))
+        if picture is None:
+            raise ValueError(f"{path}: not an image OpenCV can read")
+        side = arm.side or "left" if "arm" in entry.params else None
+        if side not in readers:
+            chosen = {"arm": side} if side is not None else {}
+            readers[side] = build_estimator(estimator, context, **{**params, **chosen})
+        reader = readers[side]
+        reader.reset()
+        estimate = reader.update(cv2.cvtColor(picture, cv2.COLOR_BGR2RGB))
+        found = estimate.keypoints is not None and estimate.keypoints.shape == (3, 2)
+        truth = arm.keypoints.astype(np.float64)[None]
+        row: dict[str, Any] = {"photo": arm.file_name, "found": bool(found)}
+        if found:
+            predicted = np.asarray(estimate.keypoints, np.float64)[None]
+            row["upper_correct"] = bool(pcp(predicted, truth, (0, 1)))
+            row["lower_correct"] = bool(pcp(predicted, truth, (1, 2)))
+            error = wrap_angle(keypoints_to_angles(predicted, 1) - keypoints_to_angles(truth, 1))
+            row["elbow_error_deg"] = float(abs(math.degrees(error[0, 0])))
+        else:
+            row.update(upper_correct=False, lower_correct=False, elbow_error_deg=None)
+        rows.append(row)
+
+    def summary(values: list[float], statistic: Any = np.mean) -> dict[str, Any]:
+        if not values:
+            return {"value": None, "low": None, "high": None, "n": 0}
+        low, high = bootstrap_interval(np.asarray(values, float), statistic)
+        return {"value": float(statistic(values)), "low": low, "high": high,
+                "n": len(values)}
+
+    errors = [r["elbow_error_deg"] for r in rows if r["found"]]
+    return {
+        "estimator": estimator, "annotations": str(annotations), "photos": len(rows),
+        "found": sum(r["found"] for r in rows),
+        "pcp_upper": summary([float(r["upper_correct"]) for r in rows]),
+        "pcp_lower": summary([float(r["lower_correct"]) for r in rows]),
+        "elbow_error_deg_median": summary(errors, np.median),
+        "rows": rows,
+    }

@@ -103,3 +103,43 @@ def test_don_paper_on_two_links_is_linked_don_without_its_appearance_layer() -> 
               for name in ("don", "don-paper")}
     assert scores["don-paper"]["rmse_deg"] == pytest.approx(expected)
     assert scores["don"]["rmse_deg"] != pytest.approx(expected)
+
+
+def test_eval_scores_photos_with_pcp_and_the_elbow_error(tmp_path) -> None:
+    import json
+
+    import cv2
+
+    from imimic_gym.cli import main as cli
+    from imimic_gym.clips.annotations import ArmAnnotation, write_annotations
+    from imimic_gym.clips.cache import load_clip
+    from imimic_gym.clips.scenarios import get_scenario
+
+    clip = load_clip(get_scenario("default", seed=5, n_frames=12), progress=False)
+    (tmp_path / "images").mkdir()
+    arms = []
+    for i in (3, 7, 11):
+        name = f"frame{i}.png"
+        cv2.imwrite(str(tmp_path / "images" / name), cv2.cvtColor(clip.frames[i],
+                                                                   cv2.COLOR_RGB2BGR))
+        arms.append(ArmAnnotation(name, 320, 240, clip.truth.keypoints[i][:3],
+                                  np.ones(3, bool), image_id=i))
+    write_annotations(tmp_path / "arms.json", arms)
+    out = tmp_path / "photos.json"
+    assert cli(["eval", "--photos", str(tmp_path / "arms.json"), "--images",
+                str(tmp_path / "images"), "--estimator", "pose", "cnn", "--json",
+                str(out)]) == 0
+    pose, cnn = json.loads(out.read_text())
+    assert pose["photos"] == cnn["photos"] == 3 and cnn["found"] == 3
+    for result in (pose, cnn):
+        for key in ("pcp_upper", "pcp_lower"):
+            cell = result[key]
+            assert 0.0 <= cell["low"] <= cell["value"] <= cell["high"] <= 1.0
+    # The shipped CNN was trained on renders like these; the pose model reads them too.
+    assert cnn["pcp_upper"]["value"] == 1.0 and cnn["elbow_error_deg_median"]["value"] < 40
+    assert pose["found"] >= 2 and pose["elbow_error_deg_median"]["value"] < 20
+    with pytest.raises(SystemExit, match="'don' reads motion between frames"):
+        cli(["eval", "--photos", str(tmp_path / "arms.json"), "--images",
+             str(tmp_path / "images"), "--estimator", "don"])
+    with pytest.raises(SystemExit, match=r"--photos .* and --images .* go together"):
+        cli(["eval", "--photos", str(tmp_path / "arms.json")])

@@ -36,15 +36,14 @@ import cv2
 import numpy as np
 
 from imimic_gym.bench import machine
-from imimic_gym.clips.annotations import image_path, keypoints_to_angles, read_annotations
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
 from imimic_gym.clips.video import VideoReader, stream_video
 from imimic_gym.estimators.pose import human_joint_ranges
 from imimic_gym.estimators.registry import build_estimator, get_estimator
 from imimic_gym.estimators.types import EstimatorContext
-from imimic_gym.evaluation import WARM_UP_S, clip_context, run_estimator
-from imimic_gym.metrics import bootstrap_interval, pcp, wrap_angle
+from imimic_gym.evaluation import WARM_UP_S, clip_context, evaluate_photos, run_estimator
+from imimic_gym.metrics import bootstrap_interval, wrap_angle
 
 REALDATA = Path(__file__).resolve().parents[3] / "shared" / "realdata"
 VIDEO_ESTIMATORS = ("pose", "pose-don", "don", "don-paper", "mog2", "camshift", "cnn")
@@ -64,48 +63,34 @@ def interval(values: Any, statistic: Any = np.mean) -> dict[str, Any]:
 
 # 1. Photos ----------------------------------------------------------------------------
 def photos(quick: bool) -> dict[str, Any]:
+    """`imimic eval --photos` for the pose model and each shipped CNN."""
+    from imimic_gym.estimators.cnn import default_checkpoint
+
     coco = REALDATA / "coco_mini"
-    arms = read_annotations(coco / "person_keypoints.json")[: 8 if quick else None]
-    images = [cv2.cvtColor(cv2.imread(str(image_path(a, coco / "images"))), cv2.COLOR_BGR2RGB)
-              for a in arms]
-    truth = np.stack([a.keypoints for a in arms]).astype(np.float64)
-    predictions: dict[str, np.ndarray] = {}
-    from imimic_gym.estimators.pose_model import PoseModel
+    annotations = coco / "person_keypoints.json"
+    if quick:  # the first few photos only
+        import json
 
-    model = PoseModel(video=False)
-    found = []
-    for arm, image in zip(arms, images, strict=True):
-        body = model(image)
-        found.append(body is not None)
-        side = arm.side or "left"
-        found_arm = body.arm(side)[0] if body is not None else np.full((3, 2), np.nan)
-        predictions.setdefault("pose", []).append(found_arm)
-    from imimic_gym.estimators.cnn import default_checkpoint, load_model, predict_keypoints
-
-    for links in (1, 2):
-        network = load_model(default_checkpoint(links))
-        predictions[f"cnn (shipped, {links} link{'s' * (links > 1)})"] = predict_keypoints(
-            network, images)
+        data = json.loads(annotations.read_text())
+        keep = {image["id"] for image in data["images"][:8]}
+        data["images"] = [i for i in data["images"] if i["id"] in keep]
+        data["annotations"] = [a for a in data["annotations"] if a["image_id"] in keep]
+        annotations = Path(tempfile.mkdtemp(prefix="imimic_photos_")) / "few.json"
+        annotations.write_text(json.dumps(data))
+    runs = {"pose": {}, **{f"cnn (shipped, {links} link{'s' * (links > 1)})":
+                           {"checkpoint": str(default_checkpoint(links))} for links in (1, 2)}}
     rows = {}
-    for name, predicted in predictions.items():
-        predicted = np.nan_to_num(np.asarray(predicted, dtype=np.float64), nan=-1e6)
-        upper = [pcp(p[None], t[None], (0, 1)) for p, t in zip(predicted, truth, strict=True)]
-        lower = [pcp(p[None], t[None], (1, 2)) for p, t in zip(predicted, truth, strict=True)]
-        seen = np.array(found) if name == "pose" else np.ones(len(arms), bool)
-        error = np.degrees(np.abs(wrap_angle(keypoints_to_angles(predicted, 1)
-                                             - keypoints_to_angles(truth, 1))))[:, 0]
-        order = np.argsort(-np.where(seen, error, 181.0))[:WORST]
-        rows[name] = {
-            "pcp_upper": interval(upper), "pcp_lower": interval(lower),
-            "found": int(seen.sum()),
-            "elbow_error_deg_median": interval(error[seen], np.median),
-            "worst": [{"photo": arms[i].file_name,
-                       "elbow_error_deg": float(error[i]) if seen[i] else None}
-                      for i in order],
-        }
-        print(f"  photos {name:24s} PCP upper {np.mean(upper):.2f} lower {np.mean(lower):.2f}"
-              f", elbow median {np.median(error[seen]):.1f} deg", flush=True)
-    return {"photos": len(arms), "source": str(coco), "rows": rows}
+    for name, params in runs.items():
+        result = evaluate_photos(annotations, coco / "images", name.split()[0], **params)
+        worst = sorted(result["rows"], key=lambda r: -(r["elbow_error_deg"]
+                                                        if r["found"] else 181.0))[:WORST]
+        rows[name] = {**{k: result[k] for k in ("pcp_upper", "pcp_lower", "found",
+                                                 "elbow_error_deg_median")},
+                      "worst": [{"photo": r["photo"], "elbow_error_deg": r["elbow_error_deg"]}
+                                for r in worst]}
+        print(f"  photos {name:24s} PCP upper {result['pcp_upper']['value']:.2f} lower "
+              f"{result['pcp_lower']['value']:.2f}", flush=True)
+    return {"photos": result["photos"], "source": str(coco), "rows": rows}
 
 
 # 2. Videos ----------------------------------------------------------------------------
@@ -335,10 +320,11 @@ are percentile bootstraps (2000 resamples, seed 0) over photos or clips.
 
 The largest labelled person's labelled arm (their left where all three keypoints are
 labelled, else their right), PCP@0.5 (both ends within half the limb's true length), and
-the elbow angle (forearm from upper arm) error where the estimator gave keypoints. The
-pose model reads each photo alone (`PoseModel(video=False)`) and gives that same side of
-the person it finds; a photo where it finds nobody counts as wrong. DON, MOG2 and
-CamShift read motion and cannot score a single photo.
+the elbow angle (forearm from upper arm) error where the estimator gave keypoints: what
+`imimic eval --photos person_keypoints.json --images images --estimator pose cnn` prints.
+The pose model reads each photo from a fresh start and gives that same side of the person
+it finds, every position it has (no confidence floor); a photo where it finds nobody
+counts as wrong. DON, MOG2 and CamShift read motion and cannot score a single photo.
 
 """ + _table(["estimator", "PCP upper arm", "PCP lower arm", "photos with keypoints",
               "elbow error, median (deg)", "worst photos (elbow error, deg)"],

@@ -248,7 +248,9 @@ def load_video(
     Args:
         source: the file (or image pattern, see `VideoReader`).
         annotations: a COCO-keypoints JSON with shoulder, elbow and wrist per frame (see
-            `imimic_gym.clips.annotations`); it becomes ``clip.truth``. None: no truth.
+            `imimic_gym.clips.annotations`); it becomes ``clip.truth``. ``"pose"``: the
+            pose model's arm is the truth (pseudo-truth, `imimic_gym.labels`: frames it
+            is unsure of are interpolated). None: no truth.
         n_links: moving links the robot copies (1: the forearm, 2: upper arm and forearm).
         reference_direction: image direction of the fixed reference link, rad CCW from
             image right (default: image down).
@@ -258,7 +260,8 @@ def load_video(
         side: which arm the annotations describe: "left", "right" or "auto".
 
     ``meta`` holds ``reference_direction`` and ``joint_ranges`` (so the env builds a
-    matching robot) and ``skipped_frames`` (corrupt frames left out).
+    matching robot), ``skipped_frames`` (corrupt frames left out) and, with truth,
+    ``truth_source`` ("annotations" or "pose").
     """
     from imimic_gym.clips.annotations import truth_from_coco
 
@@ -275,10 +278,22 @@ def load_video(
             "skipped_frames": reader.skipped_frames}
     stacked = np.stack(frames)
     truth = None
-    if annotations is not None:
+    if annotations == "pose":
+        # Pseudo-truth: the pose model's arm on the frames it is sure of (`labels.py`).
+        from imimic_gym.clips.annotations import truth_from_keypoints
+        from imimic_gym.labels import label_frames
+
+        arm = side if side in ("left", "right") else "auto"
+        labels = label_frames(stacked, reader.fps, arm=arm)
+        truth = truth_from_keypoints(labels.keypoints, np.repeat(labels.labelled[:, None], 3,
+                                                                 axis=1),
+                                     reader.fps, n_links, reference_direction,
+                                     source=f"the pose model on {source}")
+        meta.update(annotations="pose", truth_source="pose")
+    elif annotations is not None:
         truth = truth_from_coco(annotations, len(stacked), reader.fps, n_links,
                                 reference_direction, side=side)
-        meta["annotations"] = str(annotations)
+        meta.update(annotations=str(annotations), truth_source="annotations")
     return Clip(frames=stacked, fps=reader.fps, truth=truth, meta=meta)
 
 

@@ -107,7 +107,9 @@ class ImitateVideoEnv(gym.Env, EzPickle):
     - `reward_ctrl = -ctrl_cost_weight * sum_i a_i^2`.
     `info` also holds `tracking_error_deg` (RMS over joints of the wrapped error, degrees),
     `frame_index`, `target_angles` (rad), `occlusion` (fraction of the moving links
-    hidden), `clip_seed` and `has_truth` (False: no ground truth, tracking reward 0).
+    hidden), `clip_seed`, `has_truth` (False: no ground truth, tracking reward 0) and,
+    with truth, `truth_source`: `"render"` (exact), `"annotations"` (a COCO file) or
+    `"pose"` (the pose model's pseudo-truth, `annotations="pose"`).
 
     ## Starting State
     The robot starts at the demonstrator's first-frame angles plus uniform noise of
@@ -126,7 +128,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
     |---|---|---|
     | `scenario` | `"default"` | scenario name (`imimic_gym.scenario_names()`) or a `Clip` |
     | `clip` | `None` | a video file path or a `Clip`; overrides `scenario` |
-    | `annotations` | `None` | COCO-keypoints JSON of the video `clip` (ground truth) |
+    | `annotations` | `None` | COCO JSON of the video `clip`, or `"pose"` (pseudo-truth) |
     | `n_links` | `None` | 1-3 moving links; `None` takes the scenario's |
     | `control` | `"position"` | `"position"`, `"velocity"` or `"torque"` actuation |
     | `modality` | `"rgb"` | `"rgb"` or `"depth"` frames in the observation |
@@ -332,6 +334,8 @@ class ImitateVideoEnv(gym.Env, EzPickle):
             "clip_seed": int(self.clip.meta.get("seed", 0)),
             "has_truth": truth is not None,
         }
+        if truth is not None:  # "render", or "annotations"/"pose" for recorded video
+            info["truth_source"] = self.clip.meta.get("truth_source", "render")
         if tracking is not None:
             target, error = tracking
             info["tracking_error_deg"] = math.degrees(math.sqrt(float(error @ error) / error.size))

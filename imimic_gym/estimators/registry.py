@@ -49,6 +49,8 @@ class EstimatorEntry:
         needs_truth: reads the clip's truth, not its pixels (the oracle).
         real_people: made for footage of real people: `imimic mimic` gives its robot a
             human arm's joint ranges (`pose.human_joint_ranges`) unless told otherwise.
+        photos: reads each frame alone, so it can score single photos (`imimic eval
+            --photos`); the frame-differencing estimators need a video.
     """
 
     name: str
@@ -60,6 +62,7 @@ class EstimatorEntry:
     frames_needed: Callable[[Mapping[str, Any]], int] = field(default=_one_frame)
     needs_truth: bool = False
     real_people: bool = False
+    photos: bool = False
 
     @property
     def links_text(self) -> str:
@@ -227,14 +230,14 @@ for _entry in (
                    params=tuple(p for p in _DON_PARAMS if p != "appearance"),
                    frames_needed=_don_frames),
     EstimatorEntry("cnn", "CNN + refiner (shipped checkpoint)", _cnn, links=(1, 2),
-                   demonstrators=("human",), params=("checkpoint", "refine")),
+                   demonstrators=("human",), params=("checkpoint", "refine"), photos=True),
     EstimatorEntry("mog2", "MOG2 background subtraction (baseline)", _baseline("mog2"),
                    params=("working_height", "gaussian", "min_area")),
     EstimatorEntry("camshift", "CamShift colour tracking (baseline)", _baseline("camshift"),
                    params=("working_height", "gaussian", "min_area")),
     EstimatorEntry("pose", "pretrained human pose model (MediaPipe BlazePose) on every frame",
                    _pose, links=(1, 2), demonstrators=("human",),
-                   params=("arm", "min_confidence"), real_people=True),
+                   params=("arm", "min_confidence"), real_people=True, photos=True),
     EstimatorEntry("pose-don", "DON on a crop about the elbow, seeded and re-seeded by the "
                    "pose model every few frames", _pose_don, demonstrators=("human",),
                    params=("arm", "min_confidence", "pose_every", "window"), real_people=True),

@@ -1,0 +1,134 @@
+"""Labels from the pose model for a user's own footage: `imimic label` and the env's
+``annotations="pose"``.
+
+The pose model (`estimators.pose.PoseEstimator`, in video mode) reads the person's arm
+in every frame; frames where its shoulder, elbow and wrist are all at ``min_confidence``
+or more are labelled, the others left unlabelled. These are a model's labels, not hand
+labels: good enough to train or score a tracker on a user's camera without labelling by
+hand, and a start that CVAT or Label Studio can import for a person to correct.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+from imimic_gym.clips.annotations import ARM_KEYPOINTS
+
+__all__ = ["PoseLabels", "label_frames", "label_video"]
+
+
+@dataclass(frozen=True)
+class PoseLabels:
+    """The pose model's arm in each of T frames.
+
+    Attributes:
+        keypoints: (T, 3, 2) float32 input pixels (x, y) of shoulder, elbow, wrist; NaN
+            in frames left unlabelled.
+        confidence: (T, 3) float32 in [0, 1]; 0 where nobody was seen.
+        labelled: (T,) bool, the frames whose three keypoints all reach the floor.
+        side: (T,) the arm read ("left", "right" or "" for none), the person's own.
+    """
+
+    keypoints: np.ndarray
+    confidence: np.ndarray
+    labelled: np.ndarray
+    side: tuple[str, ...]
+
+
+def label_frames(frames: Iterable[np.ndarray], fps: float, arm: str = "auto",
+                 min_confidence: float = 0.5,
+                 on_frame: Any = None) -> PoseLabels:
+    """`PoseLabels` of (H, W, 3) uint8 RGB ``frames``, read in order. ``on_frame(i,
+    frame)`` is called on each (to write it out, or show progress)."""
+    from imimic_gym.estimators.pose import PoseEstimator
+
+    estimator = PoseEstimator(n_links=1, fps=fps, arm=arm, min_confidence=0.0)
+    estimator.reset()
+    keypoints, confidence, sides = [], [], []
+    for i, frame in enumerate(frames):
+        reading = estimator.read(frame)
+        if on_frame is not None:
+            on_frame(i, frame)
+        if reading is None:
+            keypoints.append(np.full((3, 2), np.nan))
+            confidence.append(np.zeros(3))
+            sides.append("")
+            continue
+        keypoints.append(reading.keypoints)
+        confidence.append(reading.confidence)
+        sides.append(reading.side)
+    if not keypoints:
+        raise ValueError("no frames to label")
+    confidence_array = np.asarray(confidence, dtype=np.float32)
+    labelled = confidence_array.min(axis=1) >= min_confidence
+    points = np.asarray(keypoints, dtype=np.float32)
+    points[~labelled] = np.nan
+    return PoseLabels(points, confidence_array, labelled, tuple(sides))
+
+
+def label_video(source: str | Path, out: str | Path, arm: str = "auto",
+                min_confidence: float = 0.5, progress: bool = True) -> dict[str, Any]:
+    """Write ``out/images/frame_<i>.jpg`` for every frame of ``source`` and
+    ``out/labels.json``: COCO keypoints with one ``arm`` category (shoulder, elbow,
+    wrist; CVAT's and Label Studio's COCO-keypoints import), one image per frame with its
+    ``frame_index``, and an annotation on each frame the pose model labelled (v = 2).
+    `clips.annotations.read_annotations` and ``training/train_cnn.py --annotations
+    out/labels.json --images out/images`` read it; so does
+    ``ImitateVideo-v0(clip=source, annotations=out/labels.json)``. Returns a summary."""
+    from tqdm.auto import tqdm
+
+    from imimic_gym.clips.video import VideoReader
+
+    out = Path(out)
+    (out / "images").mkdir(parents=True, exist_ok=True)
+    reader = VideoReader(source)
+    images: list[dict[str, Any]] = []
+    bar = tqdm(unit="frame", desc=f"label {Path(str(source)).name}", disable=not progress)
+
+    def write(i: int, frame: np.ndarray) -> None:
+        name = f"frame_{i:06d}.jpg"
+        if not cv2.imwrite(str(out / "images" / name), cv2.cvtColor(frame, cv2.COLOR_RGB2BGR),
+                           [cv2.IMWRITE_JPEG_QUALITY, 95]):
+            raise OSError(f"cannot write {out / 'images' / name}")
+        images.append({"id": i + 1, "file_name": name, "width": int(frame.shape[1]),
+                       "height": int(frame.shape[0]), "frame_index": i})
+        bar.update(1)
+
+    with reader.open():
+        fps = float(reader.fps)
+        labels = label_frames(reader, fps, arm=arm, min_confidence=min_confidence,
+                              on_frame=write)
+    bar.close()
+    annotations = []
+    for i in np.flatnonzero(labels.labelled):
+        points = labels.keypoints[i].astype(np.float64)
+        x0, y0 = points.min(axis=0)
+        x1, y1 = points.max(axis=0)
+        annotations.append({
+            "id": len(annotations) + 1, "image_id": int(i) + 1, "category_id": 1,
+            "keypoints": [v for (x, y) in points.round(3).tolist() for v in (x, y, 2)],
+            "num_keypoints": 3, "iscrowd": 0,
+            "bbox": [round(float(x0), 3), round(float(y0), 3), round(float(x1 - x0), 3),
+                     round(float(y1 - y0), 3)],
+            "area": round(float((x1 - x0) * (y1 - y0)), 3),
+            "attributes": {"side": labels.side[i],
+                           "confidence": labels.confidence[i].round(3).tolist()},
+        })
+    data = {
+        "info": {"description": f"pose-model labels of {source} (imimic label): a model's "
+                                "labels, to be checked"},
+        "images": images,
+        "annotations": annotations,
+        "categories": [{"id": 1, "name": "arm", "supercategory": "person",
+                        "keypoints": list(ARM_KEYPOINTS), "skeleton": [[1, 2], [2, 3]]}],
+    }
+    (out / "labels.json").write_text(json.dumps(data, indent=1) + "\n")
+    return {"frames": len(images), "labelled": len(annotations), "fps": fps,
+            "labels": str(out / "labels.json"), "images": str(out / "images")}
