@@ -44,6 +44,10 @@ def main() -> None:
                         help="only render results/<suite>.md from results/<suite>.json")
     parser.add_argument("--quick", action="store_true",
                         help="a small run to check the suite works (figures not for RESULTS)")
+    parser.add_argument("--parts", nargs="+", default=None, metavar="PART",
+                        help="run only these parts of the suite and replace them in the "
+                             "existing results/<suite>.json (e.g. speed again on a quiet "
+                             "machine); default: all")
     args = parser.parse_args()
     suite = load(args.suite)
     data_path, report_path = RESULTS / f"{args.suite}.json", RESULTS / f"{args.suite}.md"
@@ -51,6 +55,8 @@ def main() -> None:
         data = json.loads(data_path.read_text())
     else:
         data = suite.run(args)
+        if args.parts:
+            data = {**json.loads(data_path.read_text()), **data}
         if args.quick:
             data_path, report_path = (data_path.with_suffix(".quick.json"),
                                       report_path.with_suffix(".quick.md"))

@@ -9,6 +9,46 @@ from pathlib import Path
 
 import imimic_gym  # noqa: F401  (registers the env, sets headless GL)
 
+
+class CommandError(SystemExit):
+    """A user's mistake on the command line: `main` prints it in one line on stderr and
+    the command exits with code 2 (a traceback is for bugs)."""
+
+    def __init__(self, message: str) -> None:
+        super().__init__(2)
+        self.message = message
+
+    def __str__(self) -> str:
+        return self.message
+
+
+def _at_least(low: int):
+    """An argparse type: a whole number >= ``low`` (argparse says so in one line, exit 2)."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"expected a whole number of at least {low}, "
+                                             f"got {value}")
+        return value
+
+    parse.__name__ = f"integer >= {low}"
+    return parse
+
+
+def _positive(text: str) -> float:
+    """An argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not (value > 0 and value != float("inf")):
+        raise argparse.ArgumentTypeError(f"expected a finite number above 0, got {text}")
+    return value
+
+
 # What `imimic mimic` runs unless told: it finds a person and their moving arm by itself.
 MIMIC_ESTIMATOR = "pose"
 
@@ -81,7 +121,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
         try:
             env = RegistryObservation(env, args.estimator, keep_frame=False)
         except UnsupportedClipError as error:
-            raise SystemExit(f"imimic demo: {error}") from error
+            raise CommandError(f"imimic demo: {error}") from error
         controller = PDController(env, EstimateTarget(env))
     trajectory = run_episode(env, controller, seed=args.seed, record=True)
     fps = float(env.metadata["render_fps"])
@@ -149,7 +189,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
     truth = [name for name in args.estimator if get_estimator(name).needs_truth]
     if truth:
-        raise SystemExit(f"imimic eval: the {truth[0]} estimator is the truth itself; score "
+        raise CommandError(f"imimic eval: the {truth[0]} estimator is the truth itself; score "
                          "it with a controller (--controller ...) or use an estimator that "
                          "reads the video")
     results = []
@@ -160,7 +200,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
                                             first_seed=args.first_seed,
                                             modality=args.modality)
             except ValueError as error:  # e.g. a several-link scenario for a 1-link one
-                raise SystemExit(f"imimic eval: {scenario!r}: {error}") from error
+                raise CommandError(f"imimic eval: {scenario!r}: {error}") from error
             results.append(result)
             mean = result["mean"]
             occluded = ""
@@ -182,14 +222,14 @@ def _cmd_eval_photos(args: argparse.Namespace) -> int:
     from imimic_gym.evaluation import evaluate_photos
 
     if not (args.photos and args.images):
-        raise SystemExit("imimic eval: --photos (a COCO-keypoints file) and --images (the "
+        raise CommandError("imimic eval: --photos (a COCO-keypoints file) and --images (the "
                          "folder of its photos) go together")
     results = []
     for estimator in args.estimator:
         try:
             result = evaluate_photos(args.photos, args.images, estimator)
         except (ValueError, AnnotationError, FileNotFoundError) as error:
-            raise SystemExit(f"imimic eval: {error}") from error
+            raise CommandError(f"imimic eval: {error}") from error
 
         def cell(item: dict) -> str:
             if item["value"] is None:
@@ -346,16 +386,21 @@ def cmd_mimic(args: argparse.Namespace) -> int:
 
     entry = get_estimator(args.estimator)
     if args.pivot and "pivot" not in entry.params:
-        raise SystemExit(f"imimic mimic: --pivot is DON's; {args.estimator} finds the joints "
+        raise CommandError(f"imimic mimic: --pivot is DON's; {args.estimator} finds the joints "
                          "itself")
+    for option, pair in (("--servo-range", args.servo_range),
+                         ("--joint-range", args.joint_range)):
+        if pair is not None and not pair[0] < pair[1]:
+            raise CommandError(f"imimic mimic: {option} takes LOW HIGH in degrees with LOW < "
+                             f"HIGH, got {pair[0]:g} {pair[1]:g}")
     if args.preview_height < 0:
-        raise SystemExit(f"imimic mimic: --preview-height takes 0 (the footage's size) or a "
+        raise CommandError(f"imimic mimic: --preview-height takes 0 (the footage's size) or a "
                          f"positive number of rows, got {args.preview_height}")
     if args.arm != "auto" and "arm" not in entry.params:
-        raise SystemExit(f"imimic mimic: --arm is for the estimators that find a person "
+        raise CommandError(f"imimic mimic: --arm is for the estimators that find a person "
                          f"(pose, pose-don); {args.estimator} follows whatever moves")
     if args.links not in entry.links:
-        raise SystemExit(f"imimic mimic: {args.estimator} follows {entry.links_text}; "
+        raise CommandError(f"imimic mimic: {args.estimator} follows {entry.links_text}; "
                          f"--links {args.links}")
     try:
         return _mimic(args)
@@ -426,7 +471,7 @@ def cmd_label(args: argparse.Namespace) -> int:
     from imimic_gym.labels import label_video
 
     if not 0.0 <= args.min_confidence <= 1.0:
-        raise SystemExit(f"imimic label: --min-confidence is in [0, 1], got "
+        raise CommandError(f"imimic label: --min-confidence is in [0, 1], got "
                          f"{args.min_confidence}")
     try:
         summary = label_video(args.video, args.out, arm=args.arm,
@@ -512,16 +557,16 @@ def _add_mimic(sub: argparse._SubParsersAction) -> None:
                             "default: auto, the arm that moves)")
     mimic.add_argument("--pivot", type=float, nargs=2, default=None, metavar=("X", "Y"),
                        help="the joint's pixel position if known (default: found by DON)")
-    mimic.add_argument("--fps", type=float, default=None,
+    mimic.add_argument("--fps", type=_positive, default=None,
                        help="frame rate for sources that report none (image patterns; "
                             "cameras default to 30)")
-    mimic.add_argument("--max-seconds", type=float, default=None,
+    mimic.add_argument("--max-seconds", type=_positive, default=None,
                        help="stop after this much footage, seconds (default: the whole "
                             "file; a camera runs until Ctrl-C)")
     mimic.add_argument("--serial", default=None, metavar="PORT",
                        help="also drive a servo controller on this serial port "
                             "(protocol: imimic_gym/servo.py; sketch: firmware/servo_arm/)")
-    mimic.add_argument("--baud", type=int, default=115200,
+    mimic.add_argument("--baud", type=_at_least(1), default=115200,
                        help="serial speed (default: %(default)s)")
     mimic.add_argument("--servo-range", type=float, nargs=2, default=(0.0, 120.0),
                        metavar=("LOW", "HIGH"),
@@ -567,7 +612,7 @@ def build_parser() -> argparse.ArgumentParser:
                            "MOG2 or CamShift baseline (1 link), or the true angles (oracle: "
                            "the control loop's upper bound, no vision); default: don for 1 "
                            "or 2 links, oracle for the others")
-    demo.add_argument("--frames", type=int, default=None,
+    demo.add_argument("--frames", type=_at_least(2), default=None,
                       help="clip length in frames (default: the scenario's, 150 = 5 s)")
     demo.add_argument("--out", default="demo_out", help="output folder (default: %(default)s)")
     demo.set_defaults(func=cmd_demo)
@@ -581,7 +626,8 @@ def build_parser() -> argparse.ArgumentParser:
     clip.add_argument("--scenario", default="default", choices=names,
                       help="scenario name (default: %(default)s)")
     clip.add_argument("--seed", type=int, default=0, help="clip seed (default: %(default)s)")
-    clip.add_argument("--frames", type=int, default=None, help="clip length in frames")
+    clip.add_argument("--frames", type=_at_least(2), default=None,
+                      help="clip length in frames")
     clip.add_argument("--out", default="clips_out", help="output folder (default: %(default)s)")
     clip.set_defaults(func=cmd_clip)
 
@@ -607,7 +653,8 @@ def build_parser() -> argparse.ArgumentParser:
                           choices=_estimator_names(),
                           help="default: %(default)s; oracle (the true angles) only with "
                                "--controller")
-    evaluate.add_argument("--episodes", type=int, default=3, help="clips per scenario")
+    evaluate.add_argument("--episodes", type=_at_least(1), default=3,
+                          help="clips per scenario")
     evaluate.add_argument("--modality", default="rgb", choices=("rgb", "depth"),
                           help="the colour video, or the depth video as grey frames "
                                "(default: %(default)s)")
@@ -630,10 +677,10 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--paper", action="store_true",
                           help="the paper's experiments 1-4 (DON + position and learned "
                                "controllers) as one table against the paper's statements")
-    evaluate.add_argument("--num-envs", type=int, default=1,
+    evaluate.add_argument("--num-envs", type=_at_least(1), default=1,
                           help="clips stepped at once through gym.make_vec, one process each "
                                "(default: %(default)s)")
-    evaluate.add_argument("--frames", type=int, default=None,
+    evaluate.add_argument("--frames", type=_at_least(2), default=None,
                           help="suite only: clip length in frames (default: the scenario's)")
     evaluate.add_argument("--out", default="eval_out",
                           help="suite only: folder for eval.md and plots/ (default: "
@@ -665,8 +712,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     bench.add_argument("what", choices=("env", "don"), help="which benchmark")
     bench.add_argument("--json", default=None, help="also write the results to this file")
-    bench.add_argument("--steps", type=int, default=3000, help="steps per timed run")
-    bench.add_argument("--repeats", type=int, default=5, help="alternating timed runs per env")
+    bench.add_argument("--steps", type=_at_least(1), default=3000, help="steps per timed run")
+    bench.add_argument("--repeats", type=_at_least(1), default=5,
+                       help="alternating timed runs per env")
     bench.set_defaults(func=cmd_bench)
     _add_mimic(sub)
     _add_label(sub)
@@ -675,7 +723,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    return int(args.func(args))
+    try:
+        return int(args.func(args))
+    except CommandError as error:
+        print(error, file=sys.stderr)
+        raise
+    except OSError as error:  # a folder or file the user named (--out, --video, ...)
+        print(f"imimic {args.command}: {error}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

@@ -126,3 +126,29 @@ def test_scenarios_lists_every_scenario(capsys) -> None:
     assert main(["scenarios"]) == 0
     listed = [line.split()[0] for line in capsys.readouterr().out.splitlines()]
     assert listed == scenario_names()
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["demo", "--frames", "1"], "--frames: expected a whole number of at least 2, got 1"),
+    (["demo", "--frames", "0"], "--frames: expected a whole number of at least 2, got 0"),
+    (["eval", "--episodes", "0"], "--episodes: expected a whole number of at least 1, got 0"),
+    (["bench", "env", "--steps", "0"], "--steps: expected a whole number of at least 1"),
+    (["mimic", "--video", "x.mp4", "--fps", "0"], "--fps: expected a finite number above 0"),
+    (["mimic", "--video", "x.mp4", "--servo-range", "120", "0"],
+     "--servo-range takes LOW HIGH in degrees with LOW < HIGH, got 120 0"),
+    (["mimic", "--video", "x.mp4", "--joint-range", "60", "-60"],
+     "--joint-range takes LOW HIGH in degrees with LOW < HIGH, got 60 -60"),
+])
+def test_a_users_mistake_is_one_line_and_exit_code_2(argv, message, capsys) -> None:
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    # The message is the last line (argparse puts its usage above its own).
+    assert message in err.strip().splitlines()[-1] and "Traceback" not in err
+
+
+def test_an_output_folder_that_cannot_be_made_is_one_line(tmp_path, capsys) -> None:
+    (tmp_path / "file").write_text("")
+    assert main(["demo", "--out", str(tmp_path / "file" / "out"), "--frames", "5"]) == 2
+    assert "imimic demo:" in capsys.readouterr().err

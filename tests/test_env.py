@@ -125,8 +125,14 @@ def test_an_unstable_step_raises_instead_of_resetting_the_arm_silently(
     ("kwargs", "error", "message"),
     [({"scenario": "nope"}, ValueError, "unknown scenario 'nope'; valid names"),
      ({"n_links": 5}, ValueError, "n_links must be an integer from 1 to 3, got 5"),
-     ({"width": 0}, ValueError, "width must be a positive integer, got 0"),
-     ({"height": -1}, ValueError, "height must be a positive integer, got -1"),
+     ({"width": 0}, ValueError, "width must be an integer from 1 to 4096, got 0"),
+     ({"height": -1}, ValueError, "height must be an integer from 1 to 4096, got -1"),
+     ({"width": 100_000}, ValueError, "width must be an integer from 1 to 4096, got 100000"),
+     ({"n_links": True}, ValueError, "n_links must be an integer from 1 to 3, got True"),
+     ({"n_frames": 1}, ValueError, "n_frames must be an integer of at least 2, got 1"),
+     ({"tracking_weight": float("nan")}, ValueError,
+      "tracking_weight must be a finite number >= 0, got nan"),
+     ({"reset_noise_scale": -0.1}, ValueError, "reset_noise_scale must be a finite number"),
      ({"control": "thrust"}, ValueError, "control must be one of"),
      ({"modality": "infrared"}, ValueError, "modality must be one of")],
 )
@@ -291,7 +297,24 @@ def test_render_height_draws_a_smaller_picture() -> None:
                     render_height=480)  # taller than the clip: the clip's own size
     full.reset(seed=0)
     assert full.render().shape == (240, 640, 3)
-    with pytest.raises(ValueError, match="render_height must be a positive integer"):
+    with pytest.raises(ValueError, match="render_height must be an integer from 1 to 4096"):
         gym.make("ImitateVideo-v0", scenario="default", render_height=0)
     env.close()
     full.close()
+
+
+def test_a_numpy_integer_is_a_number_of_links() -> None:
+    env = make(scenario="chain-2", n_links=np.int64(2), n_frames=4)
+    assert env.action_space.shape == (2,)
+    env.close()
+
+
+def test_a_clip_too_short_or_too_slow_to_step_is_refused() -> None:
+    from imimic_gym.clips.types import Clip
+
+    frames = np.zeros((1, 24, 32, 3), np.uint8)
+    with pytest.raises(ValueError, match="has 1 frame; an episode needs at least 2"):
+        make(scenario=Clip(frames=frames, fps=30.0))
+    slow = Clip(frames=np.zeros((3, 24, 32, 3), np.uint8), fps=0.002)
+    with pytest.raises(ValueError, match=r"plays at 0\.002 frames/s"):
+        make(scenario=slow)

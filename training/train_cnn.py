@@ -245,6 +245,14 @@ def main() -> None:
                 pred = model(xb, refine=refine)
                 loss = (keypoint_loss(pred, yb) if refine
                         else torch.nn.functional.mse_loss(pred, yb))
+                if not torch.isfinite(loss):
+                    # Stop before the weights turn NaN: no checkpoint is written.
+                    progress.close()
+                    source = args.annotations or "the shipped annotations"
+                    sys.exit(f"train_cnn.py: the loss is {loss.item()} in epoch "
+                             f"{progress.n + 1} ({stage} stage): an input is not finite "
+                             f"(a keypoint or an image of {source}?) or the learning rate "
+                             f"{args.learning_rate} is too high; nothing written")
                 optimizer.zero_grad()
                 loss.backward()
                 optimizer.step()

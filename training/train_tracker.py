@@ -6,10 +6,11 @@ One env per training scenario, vectorised; clip seeds below 1000 only (``--train
 for training, ``--val-seeds`` for the periodic evaluation; the evaluation suite's
 held-out seeds start at 1000 and are never seen here). Writes TensorBoard logs to
 ``runs/<run name>/``, and the policy weights and metadata to ``--out`` (default
-``checkpoints/tracker.pt`` and ``tracker.json``), which `LearnedController` loads.
+``runs/<run name>/tracker.pt`` and ``tracker.json``), which `LearnedController` loads.
+The shipped policy is replaced only when asked: ``--out checkpoints/tracker.pt``.
 
-    python training/train_tracker.py                       # the shipped policy
-    python training/train_tracker.py --total-timesteps 200 --out /tmp/t.pt   # smoke run
+    python training/train_tracker.py --out checkpoints/tracker.pt   # the shipped policy
+    python training/train_tracker.py --total-timesteps 200          # smoke run, in runs/
 """
 
 from __future__ import annotations
@@ -86,8 +87,9 @@ class Args:
     policy's; benchmarks/RESULTS.md lists the candidates it was chosen from)"""
     threads: int = 1
     """torch threads (the machine is shared; 1 is as fast for these small nets)"""
-    out: str = str(ROOT / "checkpoints" / "tracker.pt")
-    """where to write the policy weights; the metadata goes to the same name .json"""
+    out: str = ""
+    """where to write the policy weights (the metadata goes to the same name .json);
+    default: logdir/<run name>/tracker.pt. The shipped one is checkpoints/tracker.pt"""
     logdir: str = "runs"
     """TensorBoard log folder; the run writes into logdir/<run name>"""
     run_name: str = field(default="")
@@ -232,6 +234,12 @@ class Progress(BaseCallback):
 def main() -> None:
     args = parse_args()
     args.run_name = args.run_name or f"tracker__{args.algorithm}__{args.seed}__{int(time.time())}"
+    if args.total_timesteps < 1:
+        print(f"train_tracker.py: --total-timesteps must be at least 1, got "
+              f"{args.total_timesteps}: an untrained policy is no policy; nothing written",
+              file=sys.stderr)
+        sys.exit(2)
+    args.out = args.out or os.path.join(args.logdir, args.run_name, "tracker.pt")
     writer = SummaryWriter(os.path.join(args.logdir, args.run_name))
     writer.add_text("hyperparameters", "|param|value|\n|-|-|\n" + "\n".join(
         f"|{k}|{v}|" for k, v in asdict(args).items()))

@@ -100,6 +100,23 @@ def _need(entry: dict, key: str, where: str, path: Path) -> Any:
     return entry[key]
 
 
+def _numbers(values: Any, where: str, path: Path) -> np.ndarray:
+    """A COCO keypoint list (x, y, v, ...) as float64: every entry a finite number. A
+    null or a string is an error naming the file and the annotation (a null coordinate
+    once became NaN and ruined a whole training run)."""
+    if not isinstance(values, list) or len(values) % 3:
+        got = f"{len(values)} values" if isinstance(values, list) else type(values).__name__
+        raise AnnotationError(f"{path}: {where} 'keypoints' must be a list of x, y, v "
+                              f"triples, got {got}")
+    for k, value in enumerate(values):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                or not math.isfinite(value):
+            raise AnnotationError(
+                f"{path}: {where} keypoint {k // 3} has {'xyv'[k % 3]} = {value!r}; "
+                "expected a finite number (COCO marks an unlabelled keypoint 0, 0, 0)")
+    return np.asarray(values, dtype=np.float64)
+
+
 def _arm_indices(category: dict, path: Path) -> tuple[list[tuple[int, int, int]], int]:
     """The candidate (shoulder, elbow, wrist) index triples of a category, in preference
     order, and its keypoint count."""
@@ -160,7 +177,7 @@ def read_annotations(path: str | Path) -> list[ArmAnnotation]:
             got = len(flat) if isinstance(flat, list) else type(flat).__name__
             raise AnnotationError(f"{path}: {where} has {got} keypoint values; its category "
                                   f"has {count} keypoints, so expected {3 * count} (x, y, v)")
-        triples = np.asarray(flat, dtype=np.float64).reshape(count, 3)
+        triples = _numbers(flat, where, path).reshape(count, 3)
         choice = next((k for k, s in enumerate(sides) if np.all(triples[list(s), 2] > 0)),
                       None)
         if choice is None:
@@ -301,8 +318,9 @@ def arm_keypoints_from_coco(path: str | Path, n_frames: int,
             raise AnnotationError(f"{path}: annotations[{i}] has category_id "
                                   f"{annotation.get('category_id')!r}, expected one of "
                                   f"{sorted(sides_of)}")
-        triples = np.asarray(_need(annotation, "keypoints", f"annotations[{i}]", path),
-                             dtype=np.float64).reshape(-1, 3)
+        where = f"annotations[{i}]"
+        triples = _numbers(_need(annotation, "keypoints", where, path), where,
+                           path).reshape(-1, 3)
         for name, idx in sides.items():
             if max(idx) >= len(triples):
                 raise AnnotationError(f"{path}: annotations[{i}] has {len(triples)} "

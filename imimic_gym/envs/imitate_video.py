@@ -32,6 +32,8 @@ MODALITIES = ("rgb", "depth")
 MAX_PHYSICS_STEP = 0.0056
 MAX_OBSERVED_SPEED = 200.0  # rad/s; the joint-velocity sensor saturates here
 CLIPS_IN_MEMORY = 4
+MAX_SIDE = 4096  # px: frames and renders (MuJoCo's offscreen buffer fails far past this)
+MIN_FPS, MAX_FPS = 1.0, 1000.0  # frames/s: one physics step a frame, 6 substeps at 30
 
 
 _BAD_QACC = int(mujoco.mjtWarning.mjWARN_BADQACC)
@@ -177,12 +179,21 @@ class ImitateVideoEnv(gym.Env, EzPickle):
             raise ValueError(f"modality must be one of {MODALITIES}, got {modality!r}")
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        for name, value in (("width", width), ("height", height), ("n_frames", n_frames),
-                            ("render_height", render_height)):
-            if value is not None and not (isinstance(value, int) and value > 0):
-                raise ValueError(f"{name} must be a positive integer, got {value!r}")
-        if n_links is not None and not (isinstance(n_links, int) and 1 <= n_links <= MAX_LINKS):
-            raise ValueError(f"n_links must be an integer from 1 to {MAX_LINKS}, got {n_links!r}")
+        for name, value, low, high in (
+                ("width", width, 1, MAX_SIDE), ("height", height, 1, MAX_SIDE),
+                ("render_height", render_height, 1, MAX_SIDE),
+                ("n_frames", n_frames, 2, None), ("n_links", n_links, 1, MAX_LINKS)):
+            whole = isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+            if value is not None and not (whole and low <= value <= (high or value)):
+                span = f"from {low} to {high}" if high else f"of at least {low}"
+                raise ValueError(f"{name} must be an integer {span}, got {value!r}")
+        n_links = None if n_links is None else int(n_links)
+        for name, value in (("tracking_weight", tracking_weight),
+                            ("ctrl_cost_weight", ctrl_cost_weight),
+                            ("reset_noise_scale", reset_noise_scale)):
+            if not (isinstance(value, (int, float, np.number)) and math.isfinite(value)
+                    and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
         self.control, self.modality, self.render_mode = control, modality, render_mode
         self.render_height = render_height
         self.tracking_weight, self.ctrl_cost_weight = tracking_weight, ctrl_cost_weight
@@ -220,6 +231,15 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         self.arm: ArmSpec = arm
         self.clip = self._load(self.clip_seeds[0])
         fps = self.clip.fps
+        if len(self.clip) < 2:
+            raise ValueError(f"clip {self.clip.meta.get('path', self.clip.meta)} has "
+                             f"{len(self.clip)} frame; an episode needs at least 2 (one "
+                             "step goes from a frame to the next)")
+        if not MIN_FPS <= fps <= MAX_FPS:
+            raise ValueError(f"clip {self.clip.meta.get('path', self.clip.meta)} plays at "
+                             f"{fps:g} frames/s; ImitateVideo-v0 steps the physics once a "
+                             f"frame and takes {MIN_FPS:g} to {MAX_FPS:g} (give the video's "
+                             "real rate: stream_video/load_video(fps=...), --fps)")
 
         self.model = build_arm_model(arm)
         self.n_substeps = max(1, math.ceil(1.0 / fps / MAX_PHYSICS_STEP))

@@ -59,7 +59,7 @@ class WorkingFrames:
     def __call__(self, frame: np.ndarray) -> np.ndarray:
         """(h, w, 3) uint8, smoothed, at the working resolution."""
         if not isinstance(frame, np.ndarray) or frame.dtype != np.uint8 or frame.ndim != 3 \
-                or frame.shape[2] != 3:
+                or frame.shape[2] != 3 or 0 in frame.shape:
             got = (f"{frame.shape} {frame.dtype}" if isinstance(frame, np.ndarray)
                    else type(frame).__name__)
             raise FrameShapeError(f"{self.name} takes (H, W, 3) uint8 RGB frames, got {got}")

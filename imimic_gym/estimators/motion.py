@@ -6,6 +6,7 @@ velocity and acceleration, and those into the torque the robot needs.
 
 from __future__ import annotations
 
+import math
 import operator
 from collections import deque
 from collections.abc import Sequence
@@ -35,6 +36,10 @@ class PathEstimator:
     """
 
     def __init__(self, n_joints: int, fps: float, window: int = 10) -> None:
+        if isinstance(fps, bool) or not isinstance(fps, (int, float, np.number)) \
+                or not math.isfinite(fps) or fps <= 0:
+            raise ValueError(f"fps must be a positive, finite number of frames per second, "
+                             f"got {fps!r}")
         self.n, self.fps, self.window = n_joints, float(fps), window
         self.reset()
 

@@ -74,6 +74,10 @@ def test_a_person_without_a_complete_arm_is_skipped(tmp_path: Path) -> None:
      r"annotations\[0\] has 6 keypoint values.*expected 9"),
     (lambda d: d["annotations"][0].update(image_id=99), "image_id 99"),
     (lambda d: d["categories"][0].update(keypoints=["a", "b", "c"]), "expected"),
+    (lambda d: d["annotations"][0]["keypoints"].__setitem__(0, None),
+     r"annotations\[0\] keypoint 0 has x = None; expected a finite number"),
+    (lambda d: d["annotations"][0]["keypoints"].__setitem__(4, "12"),
+     r"annotations\[0\] keypoint 1 has y = '12'"),
 ])
 def test_malformed_files_raise_an_error_naming_the_file_and_entry(tmp_path: Path, mutate,
                                                                   message: str) -> None:

@@ -465,3 +465,21 @@ def test_the_prediction_layer_does_not_roll_on_from_a_reading_of_half_the_link()
     assert not any(estimates[i].predicted for i in range(41, 46))
     held = estimates[41].angles[0]
     assert all(estimates[i].angles[0] == held for i in range(42, 46))
+
+
+@pytest.mark.parametrize("fps", [0.0, -30.0, float("nan"), float("inf")])
+def test_a_frame_rate_that_is_not_positive_and_finite_is_refused(fps) -> None:
+    from imimic_gym.estimators.don_links import LinkedDON
+
+    message = "fps must be a positive, finite number of frames per second"
+    with pytest.raises(ValueError, match=message):
+        DON(fps=fps)
+    with pytest.raises(ValueError, match=message):
+        LinkedDON((-1, 0), ((-1.0, 1.0), (-1.0, 1.0)), fps=fps)
+
+
+def test_an_empty_frame_is_a_frame_shape_error() -> None:
+    from imimic_gym.estimators import FrameShapeError
+
+    with pytest.raises(FrameShapeError, match=r"got \(0, 0, 3\) uint8"):
+        DON().update(np.zeros((0, 0, 3), np.uint8))

@@ -44,3 +44,15 @@ def test_help_explains_every_option(tmp_path: Path) -> None:
                  "--json", "--batch-size"):
         assert flag in out
     assert "paper: 14" in out
+
+
+def test_a_non_finite_loss_stops_training_and_writes_nothing(tmp_path: Path) -> None:
+    test = tmp_path / "tiny_test.json"
+    write_annotations(test, read_annotations(DEFAULT_ANNOTATIONS / "arm1_test.json")[:4])
+    done = subprocess.run([sys.executable, str(SCRIPT), "--limit", "14", "--cnn-epochs", "2",
+                           "--epochs", "2", "--threads", "1", "--learning-rate", "1e30",
+                           "--test-annotations", str(test), "--out", "model/cnn.pt"],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert done.returncode != 0
+    assert "the loss is" in done.stderr and "nothing written" in done.stderr
+    assert not (tmp_path / "model" / "cnn.pt").exists()

@@ -61,3 +61,24 @@ def test_ppo_is_selectable_and_its_policy_loads(tmp_path) -> None:
                                   clip_seeds=(900,)), keep_frame=False)
     metrics = run_episode(env, LearnedController(env, out), seed=0).metrics()
     assert np.isfinite(metrics["rmse_deg"]) and metrics["rmse_deg"] < 40.0
+
+
+def test_no_timesteps_is_refused_and_a_smoke_run_leaves_the_shipped_policy_alone(
+        tmp_path) -> None:
+    import hashlib
+
+    result = subprocess.run([sys.executable, str(SCRIPT), "--total-timesteps", "0",
+                             "--logdir", str(tmp_path / "none")],
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2 and "--total-timesteps must be at least 1" in result.stderr
+    assert not (tmp_path / "none").exists() or not list((tmp_path / "none").rglob("*.pt"))
+
+    shipped = SCRIPT.parents[1] / "checkpoints" / "tracker.pt"
+    before = hashlib.sha256(shipped.read_bytes()).hexdigest()
+    subprocess.run([sys.executable, str(SCRIPT), "--scenarios", "exp2-servo",
+                    "--train-seeds", "1", "--val-seeds", "900", "--frames", "20",
+                    "--total-timesteps", "40", "--learning-starts", "20", "--batch-size", "16",
+                    "--eval-every", "40", "--logdir", str(tmp_path / "runs"),
+                    "--run-name", "smoke"], check=True, timeout=300, cwd=tmp_path)
+    assert (tmp_path / "runs" / "smoke" / "tracker.pt").is_file()
+    assert hashlib.sha256(shipped.read_bytes()).hexdigest() == before
