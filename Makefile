@@ -9,7 +9,9 @@ MEDIAPIPE := mediapipe==0.10.14
 OUT     ?= demo_out
 export MUJOCO_GL ?= egl
 
-.PHONY: setup demo test lint bench clean
+WHEEL   := build/wheel-check
+
+.PHONY: setup demo test wheel-check lint bench clean
 
 setup: $(VENV)/.installed
 
@@ -27,6 +29,20 @@ demo: setup
 test: setup
 	$(BIN)/ruff check .
 	$(BIN)/python -m pytest -q
+	$(MAKE) wheel-check
+
+# The wheel as a user installs it (not editable, in a venv of its own, run from another
+# folder): its shipped weights must come with it.
+wheel-check: setup
+	rm -rf $(WHEEL) && mkdir -p $(WHEEL)
+	$(BIN)/python -m pip wheel --quiet --no-deps -w $(WHEEL) .
+	$(PYTHON) -m venv $(WHEEL)/venv
+	$(WHEEL)/venv/bin/python -m pip install --quiet torch==2.13.0
+	$(WHEEL)/venv/bin/python -m pip install --quiet $(WHEEL)/imimic_gym-*.whl
+	cd $(WHEEL) && venv/bin/imimic demo --estimator cnn --scenario default --frames 30 \
+		--out demo > demo.log && venv/bin/imimic eval --controller learned --episodes 1 \
+		--frames 30 --out eval > eval.log
+	@echo "wheel-check: the installed wheel ran demo --estimator cnn and eval --controller learned"
 
 bench: setup
 	bash benchmarks/run_all.sh

@@ -19,6 +19,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from imimic_gym.checkpoints import SHIPPED_ANNOTATIONS, SHIPPED_CHECKPOINTS
+
 ROOT = Path(__file__).resolve().parents[1]
 # Training images -> (CNN epochs, combined epochs). 300 is the paper's schedule.
 EPOCHS_FOR = {300: (10, 100), 1000: (3, 22), 3000: (1, 10)}
@@ -43,7 +45,7 @@ def main() -> None:
     for links in args.links:
         for size in args.sizes:
             cnn_epochs, epochs = EPOCHS_FOR[size]
-            train = ROOT / "annotations" / f"arm{links}_train.json"
+            train = SHIPPED_ANNOTATIONS / f"arm{links}_train.json"
             if size != 300:
                 name = f"arm{links}_{size}"
                 train = work / f"{name}_train.json"
@@ -54,10 +56,10 @@ def main() -> None:
                                    check=True)
             out = work / f"cnn_arm{links}_{size}.pt"
             if size == 300 and not args.retrain_300:
-                out = ROOT / "checkpoints" / f"cnn_arm{links}.pt"
+                out = SHIPPED_CHECKPOINTS / f"cnn_arm{links}.pt"
             command = [sys.executable, str(ROOT / "training" / "train_cnn.py"), "--links",
                        str(links), "--annotations", str(train), "--test-annotations",
-                       str(ROOT / "annotations" / f"arm{links}_test.json"), "--cnn-epochs",
+                       str(SHIPPED_ANNOTATIONS / f"arm{links}_test.json"), "--cnn-epochs",
                        str(cnn_epochs), "--epochs", str(epochs), "--out", str(out),
                        "--threads", str(args.threads)]
             if out.parent == work and not out.with_suffix(".json").exists():

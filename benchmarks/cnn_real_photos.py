@@ -19,6 +19,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from imimic_gym.checkpoints import SHIPPED_CHECKPOINTS
+
 ROOT = Path(__file__).resolve().parents[1]
 COCO = ROOT.parent / "shared" / "realdata" / "coco_mini"
 TRAIN = ROOT / "training" / "train_cnn.py"
@@ -45,7 +47,7 @@ def main() -> None:
     work = Path(tempfile.mkdtemp(prefix="cnn_real_"))
     result: dict = {"photos": str(coco), "finetune_epochs": args.finetune_epochs, "rows": []}
     for links in (1, 2):
-        checkpoint = ROOT / "checkpoints" / f"cnn_arm{links}.pt"
+        checkpoint = SHIPPED_CHECKPOINTS / f"cnn_arm{links}.pt"
         shipped = eval_only(checkpoint, annotations, images, work / f"all_{links}.json")
         tuned = work / f"tuned_arm{links}.pt"
         subprocess.run([sys.executable, str(TRAIN), "--links", str(links), "--init",

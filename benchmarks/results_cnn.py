@@ -45,10 +45,10 @@ def cnn_section() -> str:
             continue
         test = meta["test"]
         out.append(f"""
-### Shipped checkpoint, {links} link(s): `checkpoints/cnn_arm{links}.pt`
+### Shipped checkpoint, {links} link(s): `imimic_gym/data/checkpoints/cnn_arm{links}.pt`
 
 Command: `{meta['command'].replace('python ', '.venv/bin/python ', 1)}` (as recorded in the
-checkpoint's metadata, `checkpoints/cnn_arm{links}.json`; every option not shown is the
+checkpoint's metadata, `imimic_gym/data/checkpoints/cnn_arm{links}.json`; every option not shown is the
 default). {meta['train_images']} training images, {test['n_images']} test images, input
 {meta['input_hw'][0]}x{meta['input_hw'][1]}, the paper's schedule; the run took {meta['train_seconds']:.0f} s of
 wall time on the shared 2-core machine, with other training runs beside it. "CNN" is the

@@ -6,13 +6,12 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
-from pathlib import Path
 
 from results_learned import candidates, error_sources, fresh_seeds, retrain
 
+from imimic_gym.checkpoints import SHIPPED_CHECKPOINTS
 from imimic_gym.paper import paper_table
 
-ROOT = Path(__file__).resolve().parents[1]
 SCRIPTED = ("position", "velocity", "torque")
 
 
@@ -23,7 +22,7 @@ def _verdict(ok: bool) -> str:
 def render(load: Callable[[str], object],
            table: Callable[[list[str], list[list[str]]], str]) -> str:
     tracking, paper, timing = load("tracking"), load("paper"), load("paper_time")
-    meta = json.loads((ROOT / "checkpoints" / "tracker.json").read_text())
+    meta = json.loads((SHIPPED_CHECKPOINTS / "tracker.json").read_text())
     rmse = {(r["scenario"], r["controller"]): r["mean"]["rmse_deg"] for r in tracking}
     seeds = tracking[0]["seeds"]
 
@@ -67,7 +66,7 @@ RMS third derivative; recovery is the time from the end of an occlusion until ev
 is within 5 degrees again (a lower bound when it never gets there). Every controller
 keeps the start pose until DON's first reading (before it, DON reports the middle of the
 joint range with trust 0, while the robot starts at the arm's pose). `learned` is the
-shipped policy (`checkpoints/tracker.pt`): {meta['algorithm'].upper()}, a residual on the {meta['control']} controller, trained {meta['total_timesteps']} steps in {meta['train_seconds']:.0f} s with {meta['torch_threads']} torch thread on this machine (shared with other jobs), on scenarios {', '.join(meta['scenarios'])}, clip seeds {meta['train_seeds'][0]}-{meta['train_seeds'][-1]}, stable-baselines3 {meta['stable_baselines3']}; command: `.venv/bin/{meta.get('command', 'python training/train_tracker.py')}`{' (its output then copied to `checkpoints/`)' if '--out' in meta.get('command', '') else ''}.
+shipped policy (`imimic_gym/data/checkpoints/tracker.pt`): {meta['algorithm'].upper()}, a residual on the {meta['control']} controller, trained {meta['total_timesteps']} steps in {meta['train_seconds']:.0f} s with {meta['torch_threads']} torch thread on this machine (shared with other jobs), on scenarios {', '.join(meta['scenarios'])}, clip seeds {meta['train_seeds'][0]}-{meta['train_seeds'][-1]}, stable-baselines3 {meta['stable_baselines3']}; command: `.venv/bin/{meta.get('command', 'python training/train_tracker.py')}`{' (its output then copied to `imimic_gym/data/checkpoints/`)' if '--out' in meta.get('command', '') else ''}.
 
 {table(["scenario", "controller", "RMSE (deg)", "max (deg)", "lag (frames)", "jerk (deg/s^3)",
         "recovery (s)", "mean eta"], rows)}

@@ -25,9 +25,9 @@ mkdir -p benchmarks/results
 # the real parts are skipped with a message when ../shared/realdata is absent).
 "$BIN/python" benchmarks/run.py real
 # CNN + refiner (issue 4): shipped checkpoints, learning curve, real photos, eval, speed.
-"$BIN/python" training/train_cnn.py --links 1 --out checkpoints/cnn_arm1.pt \
+"$BIN/python" training/train_cnn.py --links 1 --out imimic_gym/data/checkpoints/cnn_arm1.pt \
     --json benchmarks/results/cnn_train_arm1.json
-"$BIN/python" training/train_cnn.py --links 2 --out checkpoints/cnn_arm2.pt \
+"$BIN/python" training/train_cnn.py --links 2 --out imimic_gym/data/checkpoints/cnn_arm2.pt \
     --json benchmarks/results/cnn_train_arm2.json
 "$BIN/python" benchmarks/cnn_learning_curve.py --links 1 2 --threads 1 \
     --json benchmarks/results/cnn_learning_curve.json

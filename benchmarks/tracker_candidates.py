@@ -1,5 +1,5 @@
 """Compare candidate tracker policies on VALIDATION clips (seeds below 1000), the way the
-shipped `checkpoints/tracker.pt` was chosen (issue 5).
+shipped `imimic_gym/data/checkpoints/tracker.pt` was chosen (issue 5).
 
 Each candidate is a ``.pt`` written by ``training/train_tracker.py`` with its ``.json``
 beside it; it runs with DON on each scenario's validation seeds, next to the

@@ -673,7 +673,7 @@ def build_parser() -> argparse.ArgumentParser:
                                "angles, the upper bound), position (the paper's servo), "
                                "velocity, torque (each keeps the start pose until the "
                                "estimator's first reading), learned "
-                               "(checkpoints/tracker.pt)")
+                               "(the shipped policy)")
     evaluate.add_argument("--paper", action="store_true",
                           help="the paper's experiments 1-4 (DON + position and learned "
                                "controllers) as one table against the paper's statements")

@@ -1,9 +1,10 @@
 """Train the paper's CNN + refiner (§4) on labelled arms and print its PCP tables.
 
     .venv/bin/python training/train_cnn.py                      # 1 link, the shipped dataset
-    .venv/bin/python training/train_cnn.py --links 2 --out checkpoints/cnn_arm2.pt
+    .venv/bin/python training/train_cnn.py --links 2 --out imimic_gym/data/checkpoints/cnn_arm2.pt
     .venv/bin/python training/train_cnn.py --annotations my.json --images my_frames/
-    .venv/bin/python training/train_cnn.py --eval-only checkpoints/cnn_arm1.pt --json pcp.json
+    .venv/bin/python training/train_cnn.py --json pcp.json \\
+        --eval-only imimic_gym/data/checkpoints/cnn_arm1.pt
 
 Paper defaults: Adam, batch 14, the CNN alone for 10 epochs, then CNN + refiner together
 for 100 epochs with the custom loss (coordinate error + link-length error). Writes the
@@ -56,7 +57,7 @@ class Args:
     how keypoints become joint angles"""
     annotations: str | None = None
     """COCO-keypoints JSON to train on (with --eval-only: to evaluate on); default: the
-    shipped annotations/arm<links>_train.json"""
+    shipped imimic_gym/data/annotations/arm<links>_train.json"""
     test_annotations: str | None = None
     """COCO-keypoints JSON to test on; default: the shipped test file, or, when
     --annotations is given, a seeded 25% of its images"""

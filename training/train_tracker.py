@@ -7,9 +7,9 @@ for training, ``--val-seeds`` for the periodic evaluation; the evaluation suite'
 held-out seeds start at 1000 and are never seen here). Writes TensorBoard logs to
 ``runs/<run name>/``, and the policy weights and metadata to ``--out`` (default
 ``runs/<run name>/tracker.pt`` and ``tracker.json``), which `LearnedController` loads.
-The shipped policy is replaced only when asked: ``--out checkpoints/tracker.pt``.
+The shipped policy is replaced only when asked: ``--out imimic_gym/data/checkpoints/tracker.pt``.
 
-    python training/train_tracker.py --out checkpoints/tracker.pt   # the shipped policy
+    python training/train_tracker.py --out imimic_gym/data/checkpoints/tracker.pt  # shipped
     python training/train_tracker.py --total-timesteps 200          # smoke run, in runs/
 """
 
@@ -35,6 +35,7 @@ from torch.utils.tensorboard import SummaryWriter
 from tqdm import tqdm
 
 import imimic_gym  # noqa: F401  (registers ImitateVideo-v0)
+from imimic_gym.checkpoints import file_sha256
 from imimic_gym.controllers.learned import FEATURES_VERSION, ResidualTracking
 from imimic_gym.wrappers import DONObservation
 
@@ -89,7 +90,8 @@ class Args:
     """torch threads (the machine is shared; 1 is as fast for these small nets)"""
     out: str = ""
     """where to write the policy weights (the metadata goes to the same name .json);
-    default: logdir/<run name>/tracker.pt. The shipped one is checkpoints/tracker.pt"""
+    default: logdir/<run name>/tracker.pt. The shipped one is
+    imimic_gym/data/checkpoints/tracker.pt"""
     logdir: str = "runs"
     """TensorBoard log folder; the run writes into logdir/<run name>"""
     run_name: str = field(default="")
@@ -306,6 +308,7 @@ def main() -> None:
         "train_seconds": round(train_s, 1),
         "torch_threads": args.threads,
         "stable_baselines3": stable_baselines3.__version__,
+        "sha256": file_sha256(out),
         "torch": torch.__version__,
         "run_name": args.run_name,
         "command": shlex.join(["python", "training/train_tracker.py", *sys.argv[1:]]),

@@ -27,6 +27,7 @@ import cv2
 import numpy as np
 from tqdm.auto import tqdm
 
+from imimic_gym.checkpoints import SHIPPED_ANNOTATIONS
 from imimic_gym.clips.annotations import ArmAnnotation, image_path
 from imimic_gym.clips.cache import cache_dir
 from imimic_gym.clips.scenarios import ClipSpec
@@ -35,7 +36,7 @@ from imimic_gym.clips.synthetic import render_clip
 __all__ = ["DEFAULT_ANNOTATIONS", "IMAGES_PER_CLIP", "generate_arms", "load_images",
            "rendered_image_path"]
 
-DEFAULT_ANNOTATIONS = Path(__file__).resolve().parents[2] / "annotations"
+DEFAULT_ANNOTATIONS = SHIPPED_ANNOTATIONS
 IMAGES_PER_CLIP = 4
 CLIP_FRAMES = 60  # 2 s of spline motion: four frames from it are four different poses
 log = logging.getLogger(__name__)

@@ -25,6 +25,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from imimic_gym.checkpoints import SHIPPED_CHECKPOINTS, CheckpointError, verify_checkpoint
 from imimic_gym.controllers.scripted import SCRIPTED_CONTROLLERS
 from imimic_gym.estimators.types import estimate_fields
 from imimic_gym.metrics import wrap_angle
@@ -32,7 +33,7 @@ from imimic_gym.metrics import wrap_angle
 __all__ = ["DEFAULT_CHECKPOINT", "LearnedController", "ResidualTracking", "TrackerFeatures",
            "checkpoint_control", "load_policy"]
 
-DEFAULT_CHECKPOINT = Path(__file__).resolve().parents[2] / "checkpoints" / "tracker.pt"
+DEFAULT_CHECKPOINT = SHIPPED_CHECKPOINTS / "tracker.pt"
 FEATURES_VERSION = 2
 KNOWN_FEATURES_VERSIONS = (1, 2)
 TIME_HORIZON_S = 2.0  # the time feature saturates here: only the start needs a clock
@@ -203,7 +204,11 @@ def checkpoint_control(checkpoint: str | Path = DEFAULT_CHECKPOINT) -> str:
     meta_path = Path(checkpoint).with_suffix(".json")
     if not meta_path.is_file():
         return "position"
-    return str(json.loads(meta_path.read_text())["control"])
+    try:
+        return str(json.loads(meta_path.read_text())["control"])
+    except (json.JSONDecodeError, KeyError, TypeError) as err:
+        raise CheckpointError(f"tracker metadata {meta_path} is not a complete JSON record "
+                              f"of a trained tracker ({type(err).__name__}: {err})") from err
 
 
 def load_policy(path: str | Path, metadata: dict[str, Any]) -> Any:
@@ -215,8 +220,6 @@ def load_policy(path: str | Path, metadata: dict[str, Any]) -> Any:
 
     import torch
     from stable_baselines3.common.utils import ConstantSchedule
-
-    from imimic_gym.estimators.cnn import CheckpointError
 
     algo = metadata["algorithm"]
     size, n = metadata["observation_size"], metadata["action_size"]
@@ -258,12 +261,18 @@ class LearnedController:
         if not checkpoint.is_file() or not meta_path.is_file():
             raise FileNotFoundError(f"learned tracker needs {checkpoint} and {meta_path}; "
                                     "train one with python training/train_tracker.py")
-        self.metadata = json.loads(meta_path.read_text())
+        try:
+            self.metadata = json.loads(meta_path.read_text())
+            control = self.metadata["control"]
+        except (json.JSONDecodeError, KeyError, TypeError) as err:
+            raise CheckpointError(f"tracker metadata {meta_path} is not a complete JSON "
+                                  f"record of a trained tracker ({type(err).__name__}: "
+                                  f"{err})") from err
+        verify_checkpoint(checkpoint, self.metadata)
         version = self.metadata.get("features_version")
         if version not in KNOWN_FEATURES_VERSIONS:
             raise ValueError(f"{meta_path}: features_version {version!r}, this code computes "
                              f"versions {KNOWN_FEATURES_VERSIONS}; retrain the tracker")
-        control = self.metadata["control"]
         if env.unwrapped.control != control:
             raise ValueError(f"LearnedController drives control={control!r} actuation; this "
                              f"env has control={env.unwrapped.control!r}")

@@ -33,6 +33,12 @@ import numpy as np
 import torch
 from torch import nn
 
+from imimic_gym.checkpoints import (
+    SHIPPED_CHECKPOINTS,
+    CheckpointError,
+    file_sha256,
+    verify_checkpoint,
+)
 from imimic_gym.clips.annotations import keypoints_to_angles
 from imimic_gym.estimators.motion import PathEstimator, TorqueModel
 from imimic_gym.estimators.types import Estimate
@@ -53,11 +59,7 @@ __all__ = [
     "save_model",
 ]
 
-DEFAULT_CHECKPOINTS = Path(__file__).resolve().parents[2] / "checkpoints"
-
-
-class CheckpointError(ValueError):
-    """A checkpoint file is unreadable or does not fit the architecture; names the file."""
+DEFAULT_CHECKPOINTS = SHIPPED_CHECKPOINTS
 
 
 @dataclass(frozen=True)
@@ -187,18 +189,19 @@ def save_model(model: CNNRefiner, path: str | Path, metadata: dict[str, Any]) ->
     path.parent.mkdir(parents=True, exist_ok=True)
     torch.save({k: v.half() if v.is_floating_point() else v
                 for k, v in model.state_dict().items()}, path)
-    meta = {"architecture": asdict(model.config), **metadata}
+    meta = {"architecture": asdict(model.config), **metadata, "sha256": file_sha256(path)}
     path.with_suffix(".json").write_text(json.dumps(meta, indent=2) + "\n")
 
 
 def load_model(path: str | Path) -> CNNRefiner:
     """The `CNNRefiner` saved at ``path`` (architecture from the JSON beside it, if any),
+    checked against the SHA-256 that JSON records (`checkpoints.verify_checkpoint`), then
     loaded with ``torch.load(weights_only=True)``.
 
     Raises:
         FileNotFoundError: no file at ``path``.
-        CheckpointError: not a torch checkpoint (corrupt, truncated), or its tensors do
-            not fit the architecture.
+        CheckpointError: altered or corrupt (its SHA-256), not a torch checkpoint
+            (truncated), or its tensors do not fit the architecture.
     """
     path = Path(path)
     if not path.is_file():
@@ -207,12 +210,14 @@ def load_model(path: str | Path) -> CNNRefiner:
     meta_path = path.with_suffix(".json")
     if meta_path.is_file():
         try:
-            arch = json.loads(meta_path.read_text())["architecture"]
+            meta = json.loads(meta_path.read_text())
+            arch = meta["architecture"]
             config = NetConfig(**{k: tuple(v) if isinstance(v, list) else v
                                   for k, v in arch.items()})
         except (json.JSONDecodeError, KeyError, TypeError) as err:
             raise CheckpointError(f"checkpoint metadata {meta_path} has no valid "
                                   f"'architecture' ({err})") from err
+        verify_checkpoint(path, meta)
     try:
         state = torch.load(path, map_location="cpu", weights_only=True)
     except (RuntimeError, pickle.UnpicklingError, EOFError, zipfile.BadZipFile,

@@ -168,7 +168,7 @@ class CNNObservation(EstimatorObservation):
 
     Args:
         env: an ImitateVideo env whose demonstrator is a person's arm with 1 or 2 links.
-        checkpoint: a checkpoint path; None loads the shipped ``checkpoints/cnn_arm<n>.pt``.
+        checkpoint: a checkpoint path; None loads the shipped ``cnn_arm<n>.pt``.
         keep_frame: see `EstimatorObservation`.
         refine: False skips the refiner. Only meaningful for a network whose CNN was trained
             alone: in the shipped ones CNN and refiner were trained together, and the CNN's

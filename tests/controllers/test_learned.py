@@ -74,14 +74,44 @@ def test_learned_controller_refuses_what_it_cannot_drive(tmp_path) -> None:
 
 
 def test_a_corrupt_tracker_checkpoint_is_named(tmp_path) -> None:
-    from imimic_gym.estimators.cnn import CheckpointError
+    from imimic_gym.checkpoints import CheckpointError
 
+    env = don_env(control=checkpoint_control(), n_frames=10)
+    metadata = json.loads(DEFAULT_CHECKPOINT.with_suffix(".json").read_text())
     broken = tmp_path / "tracker.pt"
     broken.write_bytes(DEFAULT_CHECKPOINT.read_bytes()[:500])  # truncated
-    broken.with_suffix(".json").write_text(DEFAULT_CHECKPOINT.with_suffix(".json").read_text())
-    with pytest.raises(CheckpointError, match=r"tracker checkpoint .*tracker\.pt is not a SAC "
-                                              r"policy state_dict"):
-        LearnedController(don_env(control=checkpoint_control(), n_frames=10), broken)
+    broken.with_suffix(".json").write_text(json.dumps(metadata))
+    with pytest.raises(CheckpointError, match=r"tracker\.pt does not match the SHA-256 its "
+                                              r"metadata records"):
+        LearnedController(env, broken)
+    # Metadata from before checkpoints recorded their SHA-256: a warning, then torch says.
+    broken.with_suffix(".json").write_text(json.dumps({k: v for k, v in metadata.items()
+                                                       if k != "sha256"}))
+    with pytest.warns(UserWarning, match="records no sha256"), \
+            pytest.raises(CheckpointError, match=r"tracker checkpoint .*tracker\.pt is not a "
+                                                 r"SAC policy state_dict"):
+        LearnedController(env, broken)
+    # Flipped bytes in the middle, same length: the SHA-256 catches what torch would load.
+    flipped = bytearray(DEFAULT_CHECKPOINT.read_bytes())
+    flipped[200_000:204_096] = bytes(b ^ 0xFF for b in flipped[200_000:204_096])
+    broken.write_bytes(bytes(flipped))
+    broken.with_suffix(".json").write_text(json.dumps(metadata))
+    with pytest.raises(CheckpointError, match="does not match the SHA-256"):
+        LearnedController(env, broken)
+
+
+@pytest.mark.parametrize("text", ['{"algorithm": "sac", "contr', '{"algorithm": "sac"}'])
+def test_a_truncated_or_incomplete_tracker_json_is_named(tmp_path, text) -> None:
+    from imimic_gym.checkpoints import CheckpointError
+
+    checkpoint = tmp_path / "tracker.pt"
+    checkpoint.write_bytes(DEFAULT_CHECKPOINT.read_bytes())
+    checkpoint.with_suffix(".json").write_text(text)
+    with pytest.raises(CheckpointError, match=r"tracker metadata .*tracker\.json is not a "
+                                              r"complete JSON record"):
+        checkpoint_control(checkpoint)
+    with pytest.raises(CheckpointError, match=r"tracker\.json is not a complete JSON record"):
+        LearnedController(don_env(n_frames=10), checkpoint)
 
 
 def test_the_rate_history_holds_the_past_frames_omega_and_trust() -> None:

@@ -1,3 +1,4 @@
+import json
 import math
 import re
 from pathlib import Path
@@ -101,6 +102,32 @@ def test_corrupt_and_wrong_checkpoints_name_the_file(tmp_path: Path) -> None:
         load_model(wrong)
     with pytest.raises(FileNotFoundError, match=r"missing\.pt"):
         load_model(tmp_path / "missing.pt")
+
+
+def test_a_checkpoint_with_flipped_bytes_is_refused_by_its_sha256(tmp_path: Path) -> None:
+    shipped = default_checkpoint(1)
+    data = bytearray(shipped.read_bytes())
+    data[100_000:104_096] = bytes(b ^ 0xFF for b in data[100_000:104_096])  # 4 KB flipped
+    flipped = tmp_path / "cnn_arm1.pt"
+    flipped.write_bytes(bytes(data))
+    flipped.with_suffix(".json").write_text(shipped.with_suffix(".json").read_text())
+    with pytest.raises(CheckpointError, match=re.escape(str(flipped)) + " does not match the "
+                                              "SHA-256"):
+        load_model(flipped)
+    # A checkpoint saved here records its SHA-256 and loads.
+    save_model(CNNRefiner(SMALL), tmp_path / "fresh.pt", {"links": 1})
+    assert len(json.loads((tmp_path / "fresh.json").read_text())["sha256"]) == 64
+    load_model(tmp_path / "fresh.pt")
+
+
+def test_the_shipped_files_live_inside_the_package() -> None:
+    import imimic_gym
+    from imimic_gym.checkpoints import SHIPPED_ANNOTATIONS, SHIPPED_CHECKPOINTS
+
+    package = Path(imimic_gym.__file__).parent
+    for folder in (SHIPPED_CHECKPOINTS, SHIPPED_ANNOTATIONS):
+        assert folder.is_dir() and package in folder.parents
+    assert default_checkpoint(2).parent == SHIPPED_CHECKPOINTS
 
 
 def test_shipped_checkpoints_load_and_see_the_arm() -> None:

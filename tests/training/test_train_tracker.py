@@ -67,13 +67,15 @@ def test_no_timesteps_is_refused_and_a_smoke_run_leaves_the_shipped_policy_alone
         tmp_path) -> None:
     import hashlib
 
+    from imimic_gym.checkpoints import SHIPPED_CHECKPOINTS
+
     result = subprocess.run([sys.executable, str(SCRIPT), "--total-timesteps", "0",
                              "--logdir", str(tmp_path / "none")],
                             capture_output=True, text=True, timeout=60)
     assert result.returncode == 2 and "--total-timesteps must be at least 1" in result.stderr
     assert not (tmp_path / "none").exists() or not list((tmp_path / "none").rglob("*.pt"))
 
-    shipped = SCRIPT.parents[1] / "checkpoints" / "tracker.pt"
+    shipped = SHIPPED_CHECKPOINTS / "tracker.pt"
     before = hashlib.sha256(shipped.read_bytes()).hexdigest()
     subprocess.run([sys.executable, str(SCRIPT), "--scenarios", "exp2-servo",
                     "--train-seeds", "1", "--val-seeds", "900", "--frames", "20",
