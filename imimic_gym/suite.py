@@ -133,9 +133,7 @@ def run_config(config: RunConfig, num_envs: int = 1) -> list[Trajectory]:
 def _run_vector(config: RunConfig, num_envs: int) -> list[Trajectory]:
     sync = config.controller == "oracle"
     if not sync:
-        # Render the clips into the cache here, once, before the sub-env processes fork:
-        # two of them rendering clips of their own (two EGL contexts in forked children)
-        # hung `imimic eval --num-envs 2` on seeds not yet cached.
+        # Render the clips into the cache once, here, rather than in each sub-env.
         spec = get_scenario(config.scenario,
                             **({"n_frames": config.frames} if config.frames else {}))
         for seed in config.seeds:

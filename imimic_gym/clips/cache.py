@@ -168,6 +168,25 @@ def _read(path: Path, spec: ClipSpec) -> Clip:
                     truth=truth, meta=meta)
 
 
+_IMPORTED_IN = os.getpid()  # a process that forked after importing us has another pid
+
+
+def _render_in_spawned_process(spec: ClipSpec, progress: bool) -> None:
+    """Render ``spec`` into the cache from a new interpreter (not a fork; a subprocess,
+    since vector-env workers are daemons that multiprocessing forbids children)."""
+    import pickle
+    import subprocess
+    import sys
+
+    code = ("import pickle, sys; from imimic_gym.clips.cache import load_clip; "
+            "spec, progress = pickle.load(sys.stdin.buffer); load_clip(spec, progress)")
+    done = subprocess.run([sys.executable, "-c", code], input=pickle.dumps((spec, progress)),
+                          check=False)
+    if done.returncode != 0:
+        raise RuntimeError(f"rendering clip {spec.name!r} seed {spec.seed} in a new process "
+                           f"failed (exit code {done.returncode}); its output above says why")
+
+
 def load_clip(spec: ClipSpec, progress: bool = True, use_cache: bool = True) -> Clip:
     """The clip for ``spec``: from the cache if a sound copy is there, else rendered (and
     cached, then the cache pruned to its bound). ``progress`` shows a progress bar while
@@ -183,6 +202,12 @@ def load_clip(spec: ClipSpec, progress: bool = True, use_cache: bool = True) -> 
                 os.utime(path)  # its last use, for pruning
             return clip
     limit = cache_limit_bytes() if use_cache else None  # a bad setting fails before rendering
+    if limit is not None and os.getpid() != _IMPORTED_IN:
+        # A forked child (gym.make_vec's async workers fork on Linux) hangs in EGL when it
+        # renders: render in a freshly spawned process instead, and read the cache.
+        _render_in_spawned_process(spec, progress)
+        with contextlib.suppress(OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+            return _read(path, spec)
     clip = render_clip(spec, progress=progress)
     if limit is not None:
         _write(path, clip)

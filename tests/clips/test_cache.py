@@ -110,3 +110,26 @@ def test_a_bad_cache_bound_is_refused_before_rendering(
     with pytest.raises(ValueError, match=f"IMIMIC_CACHE_MAX_GB.*{setting!r}"):
         cache.load_clip(SPEC.replace(seed=60), progress=False)
     assert counted_renders == []
+
+
+def test_an_async_vector_env_with_an_empty_cache_does_not_hang(tmp_path) -> None:
+    """gym.make_vec's async workers fork; a forked worker that renders with EGL hung for
+    good. They now render in a new process. Run in a subprocess with a timeout, so a
+    regression fails instead of hanging the suite."""
+    import os
+    import subprocess
+    import sys
+
+    script = (
+        "import gymnasium as gym, imimic_gym\n"
+        "vec = gym.make_vec('ImitateVideo-v0', num_envs=2, vectorization_mode='async',\n"
+        "                   n_frames=12, clip_seeds=(3, 4))\n"
+        "obs, info = vec.reset(seed=0)\n"
+        "print('reset', obs['frame'].shape, sorted(set(info['clip_seed'].tolist())))\n"
+        "vec.close()\n")
+    env = {**os.environ, "IMIMIC_CACHE_DIR": str(tmp_path / "empty_cache"), "MUJOCO_GL": "egl"}
+    done = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True,
+                          text=True, timeout=180)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "reset (2, 240, 320, 3)" in done.stdout
+    assert len(list((tmp_path / "empty_cache").glob("*"))) >= 1  # rendered into the cache
