@@ -251,3 +251,32 @@ def test_a_video_env_passes_gymnasiums_checker(servo_mp4) -> None:
         warnings.simplefilter("error")
         check_env(env.unwrapped)
     assert len(env.unwrapped.clip) == 20
+
+
+def test_videos_are_written_as_h264_that_browsers_and_opencv_play(tmp_path) -> None:
+    import imageio_ffmpeg
+
+    frames = [np.full((41, 63, 3), 10 * i, np.uint8) for i in range(12)]  # odd sides
+    path = write_video(tmp_path / "odd.mp4", iter(frames), 30.0)
+    reader = imageio_ffmpeg.read_frames(str(path))
+    meta = next(reader)
+    reader.close()
+    assert meta["codec"] == "h264" and tuple(meta["size"]) == (64, 42)  # padded to even
+    back = list(VideoReader(path))
+    assert len(back) == 12 and back[0].shape == (42, 64, 3)
+    assert abs(int(back[5][:41, :63].mean()) - 50) <= 3
+
+
+def test_without_imageio_ffmpeg_the_video_is_mp4v_with_a_warning(tmp_path, monkeypatch) -> None:
+    from imimic_gym.clips import video
+
+    monkeypatch.setattr(video, "_imageio_ffmpeg", lambda: None)
+    frames = [np.zeros((24, 32, 3), np.uint8)] * 3
+    with pytest.warns(UserWarning, match="browsers do not play"):
+        path = write_video(tmp_path / "old.mp4", frames, 30.0)
+    capture = cv2.VideoCapture(str(path))
+    try:
+        fourcc = int(capture.get(cv2.CAP_PROP_FOURCC))
+        assert fourcc.to_bytes(4, "little") in (b"mp4v", b"FMP4")  # MPEG-4 part 2
+    finally:
+        capture.release()
