@@ -451,6 +451,12 @@ def _mimic(args: argparse.Namespace) -> int:
           f"{f', {len(clip)} frames' if clip.frames.length_known else ''}), "
           f"estimator {args.estimator}, "
           f"control {args.control}" + (" (Ctrl-C stops and keeps the outputs)" if live else ""))
+    if args.pivot and not (0 <= args.pivot[0] < clip.width and 0 <= args.pivot[1] < clip.height):
+        clip.frames.close()
+        if servo is not None:
+            servo.close()
+        raise CommandError(f"imimic mimic: --pivot {args.pivot[0]:g} {args.pivot[1]:g} lies "
+                           f"outside the {clip.width}x{clip.height} frame of {clip.meta['path']}")
     params: dict[str, object] = {"pivot": tuple(args.pivot)} if args.pivot else {}
     if args.arm != "auto":
         params["arm"] = args.arm
@@ -722,6 +728,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from imimic_gym.clips.cache import CacheSettingError
+
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args))
@@ -729,6 +737,9 @@ def main(argv: list[str] | None = None) -> int:
         print(error, file=sys.stderr)
         raise
     except OSError as error:  # a folder or file the user named (--out, --video, ...)
+        print(f"imimic {args.command}: {error}", file=sys.stderr)
+        return 2
+    except CacheSettingError as error:
         print(f"imimic {args.command}: {error}", file=sys.stderr)
         return 2
 

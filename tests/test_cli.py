@@ -152,3 +152,19 @@ def test_an_output_folder_that_cannot_be_made_is_one_line(tmp_path, capsys) -> N
     (tmp_path / "file").write_text("")
     assert main(["demo", "--out", str(tmp_path / "file" / "out"), "--frames", "5"]) == 2
     assert "imimic demo:" in capsys.readouterr().err
+
+
+def test_a_bad_cache_bound_is_one_line(tmp_path, capsys, monkeypatch) -> None:
+    monkeypatch.setenv("IMIMIC_CACHE_MAX_GB", "lots")
+    monkeypatch.setenv("IMIMIC_CACHE_DIR", str(tmp_path / "cache"))  # nothing cached
+    assert main(["demo", "--out", str(tmp_path / "out"), "--frames", "5"]) == 2
+    assert "IMIMIC_CACHE_MAX_GB must be a positive number of GB or 'inf', got 'lots'" in (
+        capsys.readouterr().err)
+
+
+def test_a_pivot_outside_the_frame_is_named(servo_mp4, capsys) -> None:
+    with pytest.raises(SystemExit) as stop:
+        main(["mimic", "--video", str(servo_mp4), "--estimator", "don", "--pivot", "9999",
+              "-5"])
+    assert stop.value.code == 2
+    assert "--pivot 9999 -5 lies outside the 320x240 frame" in capsys.readouterr().err

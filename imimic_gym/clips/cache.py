@@ -34,8 +34,8 @@ from imimic_gym.clips.scenarios import ClipSpec
 from imimic_gym.clips.synthetic import render_clip
 from imimic_gym.clips.types import Clip, ClipTruth, depth_from_mm, depth_to_mm
 
-__all__ = ["CacheUsage", "cache_dir", "cache_limit_bytes", "cache_path", "cache_usage",
-           "clear_cache", "load_clip", "prune_cache"]
+__all__ = ["CacheSettingError", "CacheUsage", "cache_dir", "cache_limit_bytes", "cache_path",
+           "cache_usage", "clear_cache", "load_clip", "prune_cache"]
 
 FORMAT_VERSION = 2  # 2: depth stored as whole millimetres (uint16)
 DEFAULT_MAX_GB = 20.0
@@ -53,6 +53,10 @@ def cache_path(spec: ClipSpec) -> Path:
     return cache_dir() / f"{spec.key()}.npz"
 
 
+class CacheSettingError(ValueError):
+    """An environment variable that sets up the clip cache has a value it cannot use."""
+
+
 def cache_limit_bytes() -> float:
     """The bound on the clips' total size, bytes, from ``$IMIMIC_CACHE_MAX_GB`` (GB of
     10^9 bytes; ``inf`` for none), `DEFAULT_MAX_GB` if unset."""
@@ -64,8 +68,8 @@ def cache_limit_bytes() -> float:
     except ValueError:
         gb = math.nan
     if not gb > 0:  # also NaN
-        raise ValueError(f"IMIMIC_CACHE_MAX_GB must be a positive number of GB or 'inf', "
-                         f"got {raw!r}")
+        raise CacheSettingError(f"IMIMIC_CACHE_MAX_GB must be a positive number of GB or "
+                                f"'inf', got {raw!r}")
     return gb * 1e9
 
 
