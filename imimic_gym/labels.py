@@ -31,7 +31,7 @@ class PoseLabels:
     Attributes:
         keypoints: (T, 3, 2) float32 input pixels (x, y) of shoulder, elbow, wrist; NaN
             in frames left unlabelled.
-        confidence: (T, 3) float32 in [0, 1]; 0 where nobody was seen.
+        confidence: (T, 3) float32 in [0, 1]; 0 in frames left unlabelled.
         labelled: (T,) bool, the frames whose three keypoints all reach the floor.
         side: (T,) the arm read ("left", "right" or "" for none), the person's own.
     """
@@ -49,7 +49,9 @@ def label_frames(frames: Iterable[np.ndarray], fps: float, arm: str = "auto",
     frame)`` is called on each (to write it out, or show progress)."""
     from imimic_gym.estimators.pose import PoseEstimator
 
-    estimator = PoseEstimator(n_links=1, fps=fps, arm=arm, min_confidence=0.0)
+    # The estimator's own floor: the same arm is chosen as `imimic mimic` would choose,
+    # and a frame below the floor is no reading (unlabelled).
+    estimator = PoseEstimator(n_links=1, fps=fps, arm=arm, min_confidence=min_confidence)
     estimator.reset()
     keypoints, confidence, sides = [], [], []
     for i, frame in enumerate(frames):

@@ -124,10 +124,16 @@ def parse_args() -> Args:
 def load_split(args: Args, run_dir: Path) -> tuple[list, list]:
     """(train, test) arm annotations, per --annotations / --test-annotations."""
     shipped = DEFAULT_ANNOTATIONS / f"arm{args.links}"
-    train = read_annotations(args.annotations or f"{shipped}_train.json")
-    if args.test_annotations or not args.annotations:
-        test = read_annotations(args.test_annotations or f"{shipped}_test.json")
-    else:
+    train_path = args.annotations or f"{shipped}_train.json"
+    test_path = args.test_annotations or (None if args.annotations else f"{shipped}_test.json")
+    train = read_annotations(train_path)
+    test = read_annotations(test_path) if test_path is not None else None
+    for path, arms in ((train_path, train), (test_path, test)):
+        if path is not None and not arms:
+            print(f"train_cnn.py: {path} has no image with a complete arm (shoulder, elbow "
+                  "and wrist all labelled); nothing to train or test on", file=sys.stderr)
+            sys.exit(2)
+    if test is None:
         order = np.random.default_rng(args.seed).permutation(len(train))
         cut = len(train) - max(1, len(train) // 4)
         train, test = [train[i] for i in order[:cut]], [train[i] for i in order[cut:]]

@@ -56,3 +56,18 @@ def test_a_non_finite_loss_stops_training_and_writes_nothing(tmp_path: Path) -> 
     assert done.returncode != 0
     assert "the loss is" in done.stderr and "nothing written" in done.stderr
     assert not (tmp_path / "model" / "cnn.pt").exists()
+
+
+def test_annotations_without_a_complete_arm_are_named(tmp_path: Path) -> None:
+    empty = tmp_path / "empty.json"
+    empty.write_text(json.dumps({"images": [{"id": 1, "file_name": "a.png", "width": 8,
+                                             "height": 8}],
+                                 "annotations": [],
+                                 "categories": [{"id": 1, "name": "arm",
+                                                 "keypoints": ["shoulder", "elbow", "wrist"]}]}))
+    done = subprocess.run([sys.executable, str(SCRIPT), "--annotations", str(empty),
+                           "--images", str(tmp_path), "--epochs", "1"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2
+    assert "empty.json has no image with a complete arm" in done.stderr
+    assert "Traceback" not in done.stderr
