@@ -201,6 +201,10 @@ DEPTH_GAUSSIAN = 7
 # vanished (behind something), not stopped: a smooth stop slows through the speeds DON
 # still sees.
 VANISH_DEG = 1.5
+# Over this share of the working frame's pixels moving at once, a frame shows no link's
+# motion but a cut, a flash or noise: no reading, trust 0, the link held (the rendered
+# scenarios peak at 6%, colour and depth).
+SCENE_CHANGE = 0.5
 
 
 def gaussian_for(modality: str) -> int:
@@ -324,6 +328,13 @@ class MotionMask:
         self.extrema.push(image)
         self.history.append(image)
         return mask
+
+    @property
+    def scene_changed(self) -> bool:
+        """The newest frame changed over more than `SCENE_CHANGE` of the working frame:
+        no link's motion, a cut, a flash or noise."""
+        width, height = self.frames.size
+        return self.area > SCENE_CHANGE * width * height
 
     def difference_to(self, frames_back: int,
                       box: tuple[slice, slice] = (slice(None), slice(None))) -> np.ndarray:
@@ -575,6 +586,17 @@ class DON:
             return self._predicted(trust)
         return self._hold(trust)
 
+    def _scene_changed(self) -> Reading | None:
+        """A frame that changed all over (`MotionMask.scene_changed`): trust 0 and the link
+        held where it was, at rest; the path starts afresh from here, so the frames after
+        a burst of noise carry no velocity from it. None before there is a location."""
+        self.sizes.append(None)
+        if self.angle is None:
+            return None
+        self.path.reset()
+        self.path.update((self.angle,))
+        return Reading(self.angle, 0.0, 0.0, 0.0, predicted=False)
+
     def _predicted(self, trust: float) -> Reading:
         """The reading from the prediction layer for this frame (`_predict`)."""
         self.angle = self._predict()
@@ -615,7 +637,9 @@ class DON:
         self.read = False
         reading = self._read_motion(frame)
         if reading is not None:
-            self.estimate = self._estimate(*self._read_appearance(reading))
+            if not self.motion.scene_changed:
+                reading = self._read_appearance(reading)
+            self.estimate = self._estimate(*reading)
         return self.estimate
 
     def _read_appearance(self, reading: Reading) -> Reading:
@@ -651,6 +675,8 @@ class DON:
             return None
         self.last_mask = mask
         area = self.motion.area
+        if self.motion.scene_changed:
+            return self._scene_changed()
 
         measured = None
         if area < self.min_area:

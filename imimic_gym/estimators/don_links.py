@@ -508,6 +508,10 @@ class LinkedDON:
         if mask is None:
             return False
         self.last_mask = mask
+        if self.mask.scene_changed:  # a cut, a flash or noise: no link's motion
+            self.sizes.append(None)
+            self._hold(trust=0.0)
+            return False
         found = cv2.findNonZero(mask)
         if found is None or len(found) < self.min_area:
             self.sizes.append(None)

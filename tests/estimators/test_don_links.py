@@ -209,3 +209,25 @@ def test_torque_is_the_robot_models_inverse_dynamics() -> None:
     assert np.abs(data.qfrc_bias).max() > 0.1
     assert estimate.torque == pytest.approx(data.qfrc_bias, abs=1e-9)
     env.close()
+
+
+def test_noise_and_flashes_are_not_trusted_and_leave_no_velocity() -> None:
+    """Frames that change all over (noise, a flash, a cut) are no link's motion: trust 0
+    and the arm held, not the 0.83 that noise used to earn, nor a burst of velocity."""
+    from imimic_gym.estimators.don import DON
+
+    rng = np.random.default_rng(0)
+    noise = [rng.integers(0, 256, (240, 320, 3), dtype=np.uint8) for _ in range(30)]
+    flashes = [np.full((240, 320, 3), 255 * (i % 2), np.uint8) for i in range(30)]
+    for make in (lambda: LinkedDON((-1, 0), ((-2.0, 2.0), (-2.0, 2.0)), fps=30.0),
+                 lambda: DON(fps=30.0)):
+        for frames in (noise, flashes):
+            assert max(e.trust for e in make().run(frames)) == 0.0
+    spec = get_scenario("chain-2", seed=3)
+    clip = load_clip(spec, progress=False)
+    frames = [*clip.frames[:60], *noise[:10], *clip.frames[60:90]]
+    estimates = LinkedDON(spec.link_parents, spec.joint_ranges, fps=clip.fps).run(frames)
+    assert all(e.trust == 0.0 for e in estimates[60:70])
+    held = [e.angles for e in estimates[60:70]]
+    assert all(np.array_equal(h, held[0]) for h in held)
+    assert max(np.abs(e.omega).max() for e in estimates[60:80]) < 10.0  # rad/s
