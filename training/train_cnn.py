@@ -33,7 +33,13 @@ import numpy as np
 import torch
 from tqdm.auto import tqdm
 
-from imimic_gym.clips.annotations import ARM_KEYPOINTS, read_annotations, write_annotations
+from imimic_gym.checkpoints import CheckpointError
+from imimic_gym.clips.annotations import (
+    ARM_KEYPOINTS,
+    AnnotationError,
+    read_annotations,
+    write_annotations,
+)
 from imimic_gym.clips.dataset import DEFAULT_ANNOTATIONS, load_images
 from imimic_gym.estimators.cnn import (
     CNNRefiner,
@@ -295,4 +301,8 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except (OSError, AnnotationError, CheckpointError) as error:  # the user's files
+        print(f"train_cnn.py: {error}", file=sys.stderr)
+        sys.exit(2)

@@ -22,6 +22,7 @@ import os
 import random
 import shlex
 import sys
+import tempfile
 import time
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
@@ -242,6 +243,13 @@ def main() -> None:
               file=sys.stderr)
         sys.exit(2)
     args.out = args.out or os.path.join(args.logdir, args.run_name, "tracker.pt")
+    try:  # before training, not after it: an --out that cannot be written is said now
+        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=Path(args.out).parent):
+            pass
+    except OSError as error:
+        print(f"train_tracker.py: cannot write --out {args.out}: {error}", file=sys.stderr)
+        sys.exit(2)
     writer = SummaryWriter(os.path.join(args.logdir, args.run_name))
     writer.add_text("hyperparameters", "|param|value|\n|-|-|\n" + "\n".join(
         f"|{k}|{v}|" for k, v in asdict(args).items()))

@@ -71,3 +71,11 @@ def test_annotations_without_a_complete_arm_are_named(tmp_path: Path) -> None:
     assert done.returncode == 2
     assert "empty.json has no image with a complete arm" in done.stderr
     assert "Traceback" not in done.stderr
+
+
+def test_a_missing_annotations_file_is_one_line(tmp_path: Path) -> None:
+    done = subprocess.run([sys.executable, str(SCRIPT), "--annotations",
+                           str(tmp_path / "nope.json")], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert done.stderr.startswith("train_cnn.py:") and "nope.json" in done.stderr

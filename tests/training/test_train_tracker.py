@@ -84,3 +84,13 @@ def test_no_timesteps_is_refused_and_a_smoke_run_leaves_the_shipped_policy_alone
                     "--run-name", "smoke"], check=True, timeout=300, cwd=tmp_path)
     assert (tmp_path / "runs" / "smoke" / "tracker.pt").is_file()
     assert hashlib.sha256(shipped.read_bytes()).hexdigest() == before
+
+
+def test_an_out_that_cannot_be_written_is_said_before_training(tmp_path) -> None:
+    (tmp_path / "file").write_text("")
+    result = subprocess.run([sys.executable, str(SCRIPT), "--out",
+                             str(tmp_path / "file" / "tracker.pt"), "--logdir",
+                             str(tmp_path / "runs")],
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert "cannot write --out" in result.stderr
