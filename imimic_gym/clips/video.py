@@ -26,6 +26,7 @@ spans the paper's 120-degree servo range centred on it (`DEFAULT_JOINT_RANGE`).
 from __future__ import annotations
 
 import math
+import os
 import time
 import warnings
 from collections import deque
@@ -44,6 +45,7 @@ __all__ = [
     "require_frames", "stream_video", "video_meta", "write_video",
 ]
 
+DEFAULT_VIDEO_MAX_GB = 8.0  # load_video's bound on the frames it holds in memory
 DEFAULT_REFERENCE_DIRECTION = -math.pi / 2  # image down (CCW from image right)
 DEFAULT_JOINT_RANGE = (-math.pi / 3, math.pi / 3)  # the paper's 120-degree servo, centred
 LIVE_FPS = 30.0  # a camera that does not report its rate is taken to run at this
@@ -269,15 +271,9 @@ def load_video(
     ranges = tuple(joint_ranges) if joint_ranges is not None else (DEFAULT_JOINT_RANGE,) * n_links
     reader = VideoReader(source, fps=fps)
     stream = iter(reader)
-    frames = []
-    for frame in stream:
-        frames.append(frame)
-        if max_frames is not None and len(frames) >= max_frames:
-            stream.close()  # releases the capture now
-            break
+    stacked = _read_all(reader, stream, max_frames)
     meta = {**video_meta(reader, n_links, reference_direction, ranges),
             "skipped_frames": reader.skipped_frames}
-    stacked = np.stack(frames)
     truth = None
     if annotations == "pose":
         # Pseudo-truth: the pose model's arm on the frames it is sure of (`labels.py`).
@@ -296,6 +292,59 @@ def load_video(
                                 reference_direction, side=side)
         meta.update(annotations=str(annotations), truth_source="annotations")
     return Clip(frames=stacked, fps=reader.fps, truth=truth, meta=meta)
+
+
+def video_memory_limit() -> float:
+    """Bytes of frames `load_video` may hold, from ``$IMIMIC_VIDEO_MAX_GB`` (GB of 10^9
+    bytes, default `DEFAULT_VIDEO_MAX_GB`)."""
+    raw = os.environ.get("IMIMIC_VIDEO_MAX_GB", "").strip()
+    try:
+        gb = float(raw) if raw else DEFAULT_VIDEO_MAX_GB
+    except ValueError:
+        gb = math.nan
+    if not gb > 0:
+        raise ValueError(f"IMIMIC_VIDEO_MAX_GB must be a positive number of GB, got {raw!r}")
+    return gb * 1e9
+
+
+def _read_all(reader: VideoReader, stream: Iterator[np.ndarray],
+              max_frames: int | None) -> np.ndarray:
+    """Every frame of ``stream`` (up to ``max_frames``) in one preallocated (T, H, W, 3)
+    array when the container says how many there are (no list and stacked copy: half
+    the peak memory), refusing up front a video that would not fit `video_memory_limit`."""
+    limit = video_memory_limit()
+    first = next(stream, None)
+    if first is None:
+        raise VideoFormatError(f"{reader.name}: no frame could be decoded")
+    count = reader.frame_count or 0
+    if max_frames is not None:
+        count = min(count, max_frames) if count else max_frames
+    need = max(count, 1) * first.nbytes
+    if need > limit:
+        stream.close()
+        raise VideoFormatError(
+            f"{reader.name}: {count} frames of {first.shape[1]}x{first.shape[0]} take "
+            f"{need / 1e9:.3g} GB in memory, over the {limit / 1e9:g} GB bound "
+            "(IMIMIC_VIDEO_MAX_GB); read fewer (max_frames=, n_frames=), or stream it "
+            "(clips.video.stream_video, imimic mimic), which holds a few frames at a time")
+    frames = np.empty((max(count, 1), *first.shape), dtype=np.uint8)
+    frames[0], n = first, 1
+    for frame in stream:
+        if max_frames is not None and n >= max_frames:
+            break
+        if n == len(frames):  # the container undercounted: grow by half
+            if (n + n // 2 + 1) * first.nbytes > limit:
+                stream.close()
+                raise VideoFormatError(f"{reader.name}: over {n} frames, more than the "
+                                       f"{limit / 1e9:g} GB bound (IMIMIC_VIDEO_MAX_GB) holds")
+            frames = np.concatenate([frames, np.empty_like(frames[: n // 2 + 1])])
+        frames[n] = frame
+        n += 1
+    if hasattr(stream, "close"):
+        stream.close()  # releases the capture now
+    if n < len(frames):  # the container overcounted: give the rest back, in place
+        frames.resize((n, *first.shape), refcheck=False)
+    return frames
 
 
 class FrameStream:

@@ -280,3 +280,17 @@ def test_without_imageio_ffmpeg_the_video_is_mp4v_with_a_warning(tmp_path, monke
         assert fourcc.to_bytes(4, "little") in (b"mp4v", b"FMP4")  # MPEG-4 part 2
     finally:
         capture.release()
+
+
+def test_a_video_too_big_for_memory_is_refused_before_it_is_read(tmp_path, monkeypatch) -> None:
+    frames = [np.full((48, 64, 3), 7 * i, np.uint8) for i in range(20)]
+    path = write_video(tmp_path / "long.mp4", frames, 30.0)
+    clip = load_video(path)  # 20 x 48 x 64 x 3 = 184 kB: within the default bound
+    assert clip.frames.shape == (20, 48, 64, 3) and clip.frames.flags.owndata
+    assert abs(int(clip.frames[10].mean()) - 70) <= 3
+    assert load_video(path, max_frames=5).frames.shape[0] == 5
+    monkeypatch.setenv("IMIMIC_VIDEO_MAX_GB", "0.0001")  # 100 kB
+    with pytest.raises(VideoFormatError, match=r"20 frames of 64x48 take 0\.000184 GB in "
+                                               r"memory, over the 0\.0001 GB bound"):
+        load_video(path)
+    assert load_video(path, max_frames=10).frames.shape[0] == 10  # 92 kB fits
