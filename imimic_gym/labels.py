@@ -108,7 +108,7 @@ def label_video(source: str | Path, out: str | Path, arm: str = "auto",
         labels = label_frames(reader, fps, arm=arm, min_confidence=min_confidence,
                               on_frame=write)
     bar.close()
-    annotations = []
+    annotations: list[dict[str, Any]] = []
     for i in np.flatnonzero(labels.labelled):
         points = labels.keypoints[i].astype(np.float64)
         x0, y0 = points.min(axis=0)

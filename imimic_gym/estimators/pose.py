@@ -107,7 +107,8 @@ class ArmChooser:
 
     def reset(self) -> None:
         self.side: str | None = None if self.arm == "auto" else self.arm
-        self.motion = {s: deque(maxlen=self.window) for s in ("left", "right")}
+        self.motion: dict[str, deque[float]] = {
+            side: deque(maxlen=self.window) for side in ("left", "right")}
         self.direction: dict[str, float | None] = {"left": None, "right": None}
 
     def __call__(self, body: BodyKeypoints) -> str:
@@ -121,7 +122,8 @@ class ArmChooser:
             dx, dy = points[2] - points[1]
             direction = math.atan2(-dy, dx)
             last = self.direction[side]
-            self.motion[side].append(0.0 if last is None else abs(wrap_angle(direction - last)))
+            self.motion[side].append(0.0 if last is None
+                                     else abs(float(wrap_angle(direction - last))))
             self.direction[side] = direction
         if self.arm != "auto":
             return self.arm

@@ -138,10 +138,12 @@ class PoseSeededDON:
         self.frame += 1
         self.since_pose += 1
         don = self.don.update(self._crop(frame)) if self.don is not None else None
-        trusted = don is not None and don.trust >= TRUST_FLOOR and don.keypoints is not None
-        if trusted and self.last is not None and self.since_pose < self.pose_every:
+        trusted = (don is not None and float(don.trust) >= TRUST_FLOOR
+                   and don.keypoints is not None)
+        if (trusted and don is not None and self.last is not None
+                and self.since_pose < self.pose_every):
             angle = self._don_angle(don, self.last)
-            if self.reading and abs(wrap_angle(angle - self.angle)) <= MAX_STEP:
+            if self.reading and abs(float(wrap_angle(angle - self.angle))) <= MAX_STEP:
                 return self._from_don(don, angle)
         previous = np.array([self.angle]) if self.reading else None
         reading = self.pose.read(frame, previous)
@@ -150,10 +152,10 @@ class PoseSeededDON:
         if reading is None:
             self.don, self.last = None, None
             return self._hold()
-        settled = self.frame - self.seeded_at > 2 * self.window  # DON has had its chance
+        settled = self.frame - self.seeded_at > 2 * int(self.window)  # DON had its chance
         if (self.don is None or self._moved(reading) or (settled and not trusted)
-                or (trusted and abs(wrap_angle(self._don_angle(don, reading)
-                                               - reading.angles[0])) > DISAGREE)):
+                or (trusted and abs(float(wrap_angle(self._don_angle(don, reading)
+                                                     - reading.angles[0]))) > DISAGREE)):
             self._seed(frame, reading)
         else:  # the same crop: DON's pivot follows the elbow the pose model sees
             self.don.move_pivot(tuple((reading.keypoints[1] - self.origin) * CROP / self.side))

@@ -124,7 +124,7 @@ class PoseModel:
                 "max_side": self.max_side}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__init__(**state)
+        PoseModel.__init__(self, **state)
 
     def __deepcopy__(self, memo: dict[int, Any]) -> PoseModel:
         return PoseModel(**self.__getstate__())

@@ -172,8 +172,9 @@ def _baseline(kind: str) -> Callable[..., Estimator]:
         from imimic_gym.estimators import baselines
 
         cls = baselines.MOG2Estimator if kind == "mog2" else baselines.CamShiftEstimator
+        low, high = context.joint_ranges[0]
         return cls(fps=context.fps, reference_direction=context.reference_direction,
-                   joint_range=tuple(context.joint_ranges[0]), **params)
+                   joint_range=(low, high), **params)
 
     return build
 
