@@ -37,6 +37,7 @@ import gymnasium as gym
 import numpy as np
 
 from imimic_gym.clips.video import StreamEndedError, require_frames, write_video
+from imimic_gym.envs.imitate_video import imitate_env
 from imimic_gym.estimators.registry import get_estimator
 from imimic_gym.rollout import Trajectory
 from imimic_gym.wrappers import RegistryObservation
@@ -90,7 +91,7 @@ def mimic_frames(env: gym.Env, controller: Any, log: MimicLog, rows: Any = None,
     is called (progress display). A stream that ends early ends the run, not an error.
     ``realtime`` waits until frame i's time (i / fps after the first) before reading it.
     """
-    inner = env.unwrapped
+    inner = imitate_env(env)
     n = int(env.action_space.shape[0])
 
     def record(obs: dict[str, Any], info: dict[str, Any], started: float) -> np.ndarray:

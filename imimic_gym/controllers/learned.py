@@ -27,6 +27,7 @@ from gymnasium import spaces
 
 from imimic_gym.checkpoints import SHIPPED_CHECKPOINTS, CheckpointError, verify_checkpoint
 from imimic_gym.controllers.scripted import SCRIPTED_CONTROLLERS
+from imimic_gym.envs.imitate_video import imitate_env
 from imimic_gym.estimators.types import estimate_fields
 from imimic_gym.metrics import wrap_angle
 
@@ -75,7 +76,7 @@ class TrackerFeatures:
                              f"got {version!r}")
         self.version = version
 
-        inner = env.unwrapped
+        inner = imitate_env(env)
         low, high = (np.asarray(r) for r in zip(*inner.arm.joint_ranges, strict=True))
         self.mid, self.half = (low + high) / 2, (high - low) / 2
         self.n = inner.arm.n_links
@@ -142,7 +143,7 @@ class _Residual:
 
     def __init__(self, env: gym.Env, scale: float, history: int = 0, rate_history: int = 0,
                  version: int = FEATURES_VERSION) -> None:
-        control = env.unwrapped.control
+        control = imitate_env(env).control
         if control not in ("position", "velocity"):
             raise ValueError("the learned tracker corrects the position or velocity "
                              f"controller; this env has control={control!r}")
@@ -273,9 +274,9 @@ class LearnedController:
         if version not in KNOWN_FEATURES_VERSIONS:
             raise ValueError(f"{meta_path}: features_version {version!r}, this code computes "
                              f"versions {KNOWN_FEATURES_VERSIONS}; retrain the tracker")
-        if env.unwrapped.control != control:
+        if imitate_env(env).control != control:
             raise ValueError(f"LearnedController drives control={control!r} actuation; this "
-                             f"env has control={env.unwrapped.control!r}")
+                             f"env has control={imitate_env(env).control!r}")
         self.residual = _Residual(env, float(self.metadata["residual_scale"]),
                                   int(self.metadata.get("history_frames", 0)),
                                   int(self.metadata.get("rate_history_frames", 0)), version)

@@ -15,6 +15,7 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 
+from imimic_gym.envs.imitate_video import imitate_env
 from imimic_gym.estimators.types import estimate_fields
 from imimic_gym.metrics import wrap_angle
 
@@ -42,7 +43,7 @@ class TruthTarget:
     """
 
     def __init__(self, env: gym.Env, lookahead: int = 1) -> None:
-        self.env, self.lookahead = env.unwrapped, lookahead
+        self.env, self.lookahead = imitate_env(env), lookahead
 
     def reset(self) -> None:
         """Stateless: the env's ``frame_index`` says where the clip is."""
@@ -65,7 +66,7 @@ class EstimateTarget:
     """
 
     def __init__(self, env: gym.Env, lead_frames: float = 1.0) -> None:
-        inner = env.unwrapped
+        inner = imitate_env(env)
         self.fields = estimate_fields(inner.arm.n_links)
         self.lead_s = lead_frames / float(inner.clip.fps)
         self.reset()
@@ -122,7 +123,7 @@ class PDController:
     def __init__(self, env: gym.Env, target: TargetSource, bandwidth_hz: float = 4.0,
                  kp: float | np.ndarray | None = None,
                  kd: float | np.ndarray | None = None) -> None:
-        self.env, self.target = env.unwrapped, target
+        self.env, self.target = imitate_env(env), target
         self.control = self.env.control
         omega = 2 * np.pi * bandwidth_hz
         derived_kp = {"position": 1.0, "velocity": omega, "torque": omega**2}
@@ -161,9 +162,9 @@ def OracleController(env: gym.Env) -> PDController:
 
 
 def _require_control(env: gym.Env, control: str, name: str) -> None:
-    if env.unwrapped.control != control:
+    if imitate_env(env).control != control:
         raise ValueError(f"{name} drives control={control!r} actuation; this env has "
-                         f"control={env.unwrapped.control!r}")
+                         f"control={imitate_env(env).control!r}")
 
 
 def PositionController(env: gym.Env, lead_frames: float = 1.0) -> PDController:

@@ -23,7 +23,7 @@ from imimic_gym.estimators.types import Estimate, EstimatorContext
 from imimic_gym.metrics import wrap_angle
 from imimic_gym.render import OffscreenRenderer
 
-__all__ = ["ImitateVideoEnv", "SimulationUnstableError"]
+__all__ = ["ImitateVideoEnv", "SimulationUnstableError", "imitate_env"]
 
 MODALITIES = ("rgb", "depth")
 # The physics step is the largest that divides a frame evenly and stays under this (s):
@@ -451,3 +451,13 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+
+
+def imitate_env(env: gym.Env) -> ImitateVideoEnv:
+    """The `ImitateVideoEnv` under ``env``'s wrappers (controllers read its robot and clip
+    through it). TypeError if ``env`` is not one."""
+    inner = env.unwrapped
+    if not isinstance(inner, ImitateVideoEnv):
+        raise TypeError(f"expected an ImitateVideo-v0 env (wrapped or not), got "
+                        f"{type(inner).__name__}")
+    return inner
