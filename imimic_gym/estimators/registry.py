@@ -3,7 +3,7 @@
 An entry knows how to build its estimator from an `EstimatorContext` (what the env
 publishes: fps, links, joint ranges, reference direction, modality, robot model), which
 clips it can follow, which keyword parameters a user may pass it, and how many frames it
-reads before its first real estimate. The env wrapper (`wrappers.EstimatorObservation`),
+reads before its first real estimate. The env wrapper (`wrappers.RegistryObservation`),
 the evaluation suite, `imimic eval`, `imimic mimic` and the CLI's choices all read this
 registry; adding an estimator is one `register` call::
 
