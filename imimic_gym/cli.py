@@ -216,6 +216,13 @@ def cmd_eval(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cell(item: dict) -> str:
+    """"value (low-high)" of a `metrics.with_interval` result."""
+    if item["value"] is None:
+        return "-"
+    return f"{item['value']:.2f} ({item['low']:.2f}-{item['high']:.2f})"
+
+
 def _cmd_eval_photos(args: argparse.Namespace) -> int:
     """`imimic eval --photos F --images DIR`: PCP and elbow error on annotated photos."""
     from imimic_gym.clips.annotations import AnnotationError
@@ -230,15 +237,9 @@ def _cmd_eval_photos(args: argparse.Namespace) -> int:
             result = evaluate_photos(args.photos, args.images, estimator)
         except (ValueError, AnnotationError, FileNotFoundError) as error:
             raise CommandError(f"imimic eval: {error}") from error
-
-        def cell(item: dict) -> str:
-            if item["value"] is None:
-                return "-"
-            return f"{item['value']:.2f} ({item['low']:.2f}-{item['high']:.2f})"
-
-        print(f"{estimator:10s} PCP@0.5 upper {cell(result['pcp_upper'])}, lower "
-              f"{cell(result['pcp_lower'])}; elbow error median "
-              f"{cell(result['elbow_error_deg_median'])} deg; keypoints on "
+        print(f"{estimator:10s} PCP@0.5 upper {_cell(result['pcp_upper'])}, lower "
+              f"{_cell(result['pcp_lower'])}; elbow error median "
+              f"{_cell(result['elbow_error_deg_median'])} deg; keypoints on "
               f"{result['found']} of {result['photos']} photos (95% bootstrap intervals)",
               flush=True)
         results.append(result)

@@ -129,7 +129,7 @@ def evaluate_photos(annotations: str | Path, images: str | Path, estimator: str,
 
     from imimic_gym.clips.annotations import image_path, keypoints_to_angles, read_annotations
     from imimic_gym.estimators.pose import human_joint_ranges
-    from imimic_gym.metrics import bootstrap_interval, pcp, wrap_angle
+    from imimic_gym.metrics import pcp, with_interval, wrap_angle
 
     entry = get_estimator(estimator)
     if not entry.photos:
@@ -170,19 +170,12 @@ def evaluate_photos(annotations: str | Path, images: str | Path, estimator: str,
             row.update(upper_correct=False, lower_correct=False, elbow_error_deg=None)
         rows.append(row)
 
-    def summary(values: list[float], statistic: Any = np.mean) -> dict[str, Any]:
-        if not values:
-            return {"value": None, "low": None, "high": None, "n": 0}
-        low, high = bootstrap_interval(np.asarray(values, float), statistic)
-        return {"value": float(statistic(values)), "low": low, "high": high,
-                "n": len(values)}
-
     errors = [r["elbow_error_deg"] for r in rows if r["found"]]
     return {
         "estimator": estimator, "annotations": str(annotations), "photos": len(rows),
         "found": sum(r["found"] for r in rows),
-        "pcp_upper": summary([float(r["upper_correct"]) for r in rows]),
-        "pcp_lower": summary([float(r["lower_correct"]) for r in rows]),
-        "elbow_error_deg_median": summary(errors, np.median),
+        "pcp_upper": with_interval([float(r["upper_correct"]) for r in rows]),
+        "pcp_lower": with_interval([float(r["lower_correct"]) for r in rows]),
+        "elbow_error_deg_median": with_interval(errors, np.median),
         "rows": rows,
     }

@@ -12,7 +12,7 @@ import numpy as np
 
 __all__ = [
     "OCCLUDED", "RECOVERED_DEG", "angle_rmse_deg", "bootstrap_interval", "jerk_rms",
-    "lag_frames", "max_error_deg", "pcp", "recovery_time_s", "wrap_angle",
+    "lag_frames", "max_error_deg", "pcp", "recovery_time_s", "with_interval", "wrap_angle",
 ]
 
 OCCLUDED = 0.1  # a frame counts as occluded when over 10% of the moving links is hidden
@@ -80,6 +80,16 @@ def bootstrap_interval(values: np.ndarray, statistic: Any = np.mean, level: floa
     tail = 100 * (1 - level) / 2
     low, high = np.percentile(stats, [tail, 100 - tail])
     return float(low), float(high)
+
+
+def with_interval(values: Any, statistic: Any = np.mean) -> dict[str, Any]:
+    """``statistic`` of ``values`` (N,) with its 95% `bootstrap_interval`, as
+    {"value", "low", "high", "n"}; all None (n 0) for no values."""
+    values = np.asarray(values, dtype=np.float64)
+    if values.size == 0:
+        return {"value": None, "low": None, "high": None, "n": 0}
+    low, high = bootstrap_interval(values, statistic)
+    return {"value": float(statistic(values)), "low": low, "high": high, "n": int(values.size)}
 
 
 def pcp(predicted: np.ndarray, truth: np.ndarray, limb: tuple[int, int],

@@ -45,22 +45,13 @@ from imimic_gym.estimators.pose import human_joint_ranges
 from imimic_gym.estimators.registry import build_estimator, get_estimator
 from imimic_gym.estimators.types import EstimatorContext
 from imimic_gym.evaluation import WARM_UP_S, clip_context, evaluate_photos, run_estimator
-from imimic_gym.metrics import bootstrap_interval, wrap_angle
+from imimic_gym.metrics import with_interval, wrap_angle
 
 REALDATA = Path(__file__).resolve().parents[3] / "shared" / "realdata"
 VIDEO_ESTIMATORS = ("pose", "pose-don", "don", "don-paper", "mog2", "camshift", "cnn")
 RENDERED = ("default", "exp3-forearm-none", "exp3-forearm-low", "exp3-forearm-high")
 RENDERED_SEEDS = tuple(range(6000, 6030))
 WORST = 5
-
-
-def interval(values: Any, statistic: Any = np.mean) -> dict[str, Any]:
-    """The statistic of ``values`` with its 95% bootstrap interval (None for none)."""
-    values = np.asarray(values, dtype=np.float64)
-    if values.size == 0:
-        return {"value": None, "low": None, "high": None, "n": 0}
-    low, high = bootstrap_interval(values, statistic)
-    return {"value": float(statistic(values)), "low": low, "high": high, "n": int(values.size)}
 
 
 # 1. Photos ----------------------------------------------------------------------------
@@ -314,8 +305,8 @@ def rendered(quick: bool) -> dict[str, Any]:
             clips.append(row)
         out[scenario] = {
             "seeds": [seeds[0], seeds[-1]],
-            "found_fraction": interval([c["found_fraction"] for c in clips]),
-            **{f"{name}_rmse_deg": interval([c[f"{name}_rmse_deg"] for c in clips
+            "found_fraction": with_interval([c["found_fraction"] for c in clips]),
+            **{f"{name}_rmse_deg": with_interval([c[f"{name}_rmse_deg"] for c in clips
                                              if c[f"{name}_rmse_deg"] is not None])
                for name in ("pose", "don", "cnn")},
             "worst_pose": sorted(clips, key=lambda c: -(c["pose_rmse_deg"] or 0))[:WORST],

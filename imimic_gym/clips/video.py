@@ -30,7 +30,7 @@ import os
 import time
 import warnings
 from collections import deque
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Generator, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -307,7 +307,7 @@ def video_memory_limit() -> float:
     return gb * 1e9
 
 
-def _read_all(reader: VideoReader, stream: Iterator[np.ndarray],
+def _read_all(reader: VideoReader, stream: Generator[np.ndarray, None, None],
               max_frames: int | None) -> np.ndarray:
     """Every frame of ``stream`` (up to ``max_frames``) in one preallocated (T, H, W, 3)
     array when the container says how many there are (no list and stacked copy: half
@@ -340,8 +340,7 @@ def _read_all(reader: VideoReader, stream: Iterator[np.ndarray],
             frames = np.concatenate([frames, np.empty_like(frames[: n // 2 + 1])])
         frames[n] = frame
         n += 1
-    if hasattr(stream, "close"):
-        stream.close()  # releases the capture now
+    stream.close()  # releases the capture now
     if n < len(frames):  # the container overcounted: give the rest back, in place
         frames.resize((n, *first.shape), refcheck=False)
     return frames
