@@ -21,7 +21,8 @@ from imimic_gym.estimators.registry import ESTIMATORS, build_estimator, get_esti
 from imimic_gym.estimators.types import EstimatorContext
 from imimic_gym.metrics import OCCLUDED, angle_rmse_deg, lag_frames
 
-__all__ = ["WARM_UP_S", "clip_context", "evaluate_estimator", "evaluate_photos"]
+__all__ = ["WARM_UP_S", "clip_context", "evaluate_clip", "evaluate_estimator", "evaluate_photos",
+           "summarise_estimator"]
 
 WARM_UP_S = 0.5  # frame-differencing estimators see nothing until the arm has moved
 PREDICTION_ON = 0.3  # the trust threshold used for "with the prediction layer"
@@ -40,67 +41,82 @@ def clip_context(spec: ClipSpec, clip: Clip, modality: str = "rgb") -> Estimator
 
 
 def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
-                       first_seed: int = 1000, modality: str = "rgb") -> dict[str, Any]:
+                       first_seed: int = 1000, modality: str = "rgb",
+                       frames: int | None = None) -> dict[str, Any]:
     """Run ``estimator`` over ``episodes`` held-out clips of ``scenario`` (seeds from
-    ``first_seed``; training and tests use seeds below 1000) and score it against the truth.
+    ``first_seed``; training and tests use seeds below 1000) and score it against the truth
+    (`evaluate_clip` per seed, `summarise_estimator` over them)."""
+    rows = [evaluate_clip(scenario, estimator, seed, modality, frames)
+            for seed in range(first_seed, first_seed + episodes)]
+    return summarise_estimator(scenario, estimator, modality, rows)
+
+
+def evaluate_clip(scenario: str, estimator: str, seed: int, modality: str = "rgb",
+                  frames: int | None = None) -> dict[str, Any]:
+    """Score ``estimator`` on the clip of ``scenario`` with this ``seed`` (``frames`` long:
+    default the scenario's) against its truth: one row of `evaluate_estimator`.
 
     ``modality="depth"`` feeds the estimator the clip's depth video as grey frames, near =
     bright, exactly as ``ImitateVideo-v0(modality="depth")`` shows it.
 
-    Per episode: angle RMSE (deg) over all frames and after ``WARM_UP_S`` (and, with
-    several links, after it per joint: ``rmse_deg_settled_q1`` ...), lag (frames,
-    cross-correlation peak, after warm-up), mean trust eta, and where the clip has
-    occluded frames (over 10% of the moving links hidden), the mean eta on those frames
-    and on the others, and the RMSE on them with the prediction layer off and on (DON
-    only, with or without its appearance layer).
+    The row: angle RMSE (deg) over all frames and after ``WARM_UP_S`` (and, with several
+    links, after it per joint: ``rmse_deg_settled_q1`` ...), lag (frames, cross-correlation
+    peak, after warm-up), mean trust eta, and where the clip has occluded frames (over 10%
+    of the moving links hidden), the mean eta on those frames and on the others, and the
+    RMSE on them with the prediction layer off and on (DON only, with or without its
+    appearance layer).
     """
     if modality not in MODALITIES:
         raise ValueError(f"unknown modality {modality!r}; expected one of {MODALITIES}")
-    spec = get_scenario(scenario)
+    spec = get_scenario(scenario, **({"n_frames": frames} if frames else {}))
     if get_estimator(estimator).needs_truth:
         raise ValueError(f"estimator {estimator!r} is the truth itself: score it with a "
                          "controller")
-    rows = []
-    for seed in range(first_seed, first_seed + episodes):
-        clip = load_clip(spec.replace(seed=seed), progress=False)
-        frames = clip.frames if modality == "rgb" else depth_to_frame(clip.depth)
-        truth = clip.truth.angles
-        warm = round(WARM_UP_S * clip.fps)
-        context = clip_context(spec, clip, modality)
-        estimates = run_estimator(build_estimator(estimator, context), frames)
-        angles = np.array([e.angles for e in estimates])
-        row: dict[str, Any] = {
-            "seed": seed,
-            "rmse_deg": angle_rmse_deg(angles, truth),
-            "rmse_deg_settled": angle_rmse_deg(angles[warm:], truth[warm:]),
-            "lag_frames": lag_frames(truth[warm:], angles[warm:]),
-            "mean_trust": float(np.mean([e.trust for e in estimates])),
-        }
-        if spec.n_links > 1:
-            for joint in range(spec.n_links):
-                row[f"rmse_deg_settled_q{joint + 1}"] = angle_rmse_deg(angles[warm:, joint],
-                                                                      truth[warm:, joint])
-        occluded = clip.truth.occlusion > OCCLUDED
-        row["occluded_frames"] = int(occluded.sum())
-        if occluded.any() and not occluded.all():
-            trust = np.array([e.trust for e in estimates])
-            row["mean_trust_occluded"] = float(trust[occluded].mean())
-            row["mean_trust_clear"] = float(trust[~occluded].mean())
-        if occluded.any() and estimator in PREDICTING and spec.n_links == 1:
-            on = run_estimator(build_estimator(estimator, context,
-                                               trust_threshold=PREDICTION_ON), frames)
-            with_prediction = np.array([e.angles for e in on])
-            row["rmse_occluded_deg_prediction_off"] = angle_rmse_deg(angles[occluded],
-                                                                     truth[occluded])
-            row["rmse_occluded_deg_prediction_on"] = angle_rmse_deg(with_prediction[occluded],
-                                                                    truth[occluded])
-        rows.append(row)
-    # Occlusion figures exist only for clips with occluded frames: average where present.
+    clip = load_clip(spec.replace(seed=seed), progress=False)
+    images = clip.frames if modality == "rgb" else depth_to_frame(clip.depth)
+    truth = clip.truth.angles
+    warm = round(WARM_UP_S * clip.fps)
+    context = clip_context(spec, clip, modality)
+    estimates = run_estimator(build_estimator(estimator, context), images)
+    angles = np.array([e.angles for e in estimates])
+    row: dict[str, Any] = {
+        "seed": seed,
+        "rmse_deg": angle_rmse_deg(angles, truth),
+        "rmse_deg_settled": angle_rmse_deg(angles[warm:], truth[warm:]),
+        "lag_frames": lag_frames(truth[warm:], angles[warm:]),
+        "mean_trust": float(np.mean([e.trust for e in estimates])),
+    }
+    if spec.n_links > 1:
+        for joint in range(spec.n_links):
+            row[f"rmse_deg_settled_q{joint + 1}"] = angle_rmse_deg(angles[warm:, joint],
+                                                                  truth[warm:, joint])
+    occluded = clip.truth.occlusion > OCCLUDED
+    row["occluded_frames"] = int(occluded.sum())
+    if occluded.any() and not occluded.all():
+        trust = np.array([e.trust for e in estimates])
+        row["mean_trust_occluded"] = float(trust[occluded].mean())
+        row["mean_trust_clear"] = float(trust[~occluded].mean())
+    if occluded.any() and estimator in PREDICTING and spec.n_links == 1:
+        on = run_estimator(build_estimator(estimator, context,
+                                           trust_threshold=PREDICTION_ON), images)
+        with_prediction = np.array([e.angles for e in on])
+        row["rmse_occluded_deg_prediction_off"] = angle_rmse_deg(angles[occluded],
+                                                                 truth[occluded])
+        row["rmse_occluded_deg_prediction_on"] = angle_rmse_deg(with_prediction[occluded],
+                                                                truth[occluded])
+    return row
+
+
+def summarise_estimator(scenario: str, estimator: str, modality: str,
+                        rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """`evaluate_estimator`'s result from its per-seed rows (in seed order): every
+    metric's mean, over the clips that have it (occlusion figures exist only for clips
+    with occluded frames)."""
     keys = dict.fromkeys(key for row in rows for key in row if key != "seed")
     summary = {key: float(np.mean([r[key] for r in rows if key in r])) for key in keys}
     return {"scenario": scenario, "estimator": estimator, "modality": modality,
-            "episodes": episodes,
-            "first_seed": first_seed, "warm_up_s": WARM_UP_S, "mean": summary, "rows": rows}
+            "episodes": len(rows), "first_seed": rows[0]["seed"] if rows else None,
+            "warm_up_s": WARM_UP_S, "mean": summary, "rows": rows}
 
 
 def run_estimator(estimator: Any, frames: Any) -> list:

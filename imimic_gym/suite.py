@@ -26,7 +26,7 @@ from imimic_gym.rollout import Trajectory, run_episode
 
 __all__ = [
     "CONTROLLERS", "FIRST_HELD_OUT_SEED", "METRICS", "RunConfig", "estimator_wrapper",
-    "run_config", "run_suite", "summarise",
+    "run_config", "run_suite", "summarise", "summarise_rows",
 ]
 
 FIRST_HELD_OUT_SEED = 1000  # training and tests use clip seeds below this
@@ -195,9 +195,16 @@ def _vector_episode(vec: gym.vector.VectorEnv, controllers: list, seeds: list[in
 
 
 def summarise(config: RunConfig, trajectories: Sequence[Trajectory]) -> dict[str, Any]:
-    """Per-seed metrics and their means (a metric that is None for every seed, such as
-    the recovery time without occlusion, stays None)."""
-    rows = [{"seed": s, **t.metrics()} for s, t in zip(config.seeds, trajectories, strict=True)]
+    """Per-seed metrics and their means (`summarise_rows`)."""
+    return summarise_rows(config, [
+        {"seed": s, **t.metrics()} for s, t in zip(config.seeds, trajectories, strict=True)])
+
+
+def summarise_rows(config: RunConfig, rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """``config``'s result from its per-seed rows (``{"seed": s, **Trajectory.metrics()}``,
+    in seed order): the rows and each metric's mean (a metric that is None for every seed,
+    such as the recovery time without occlusion, stays None)."""
+    rows = list(rows)
     mean: dict[str, float | None] = {}
     for key in METRICS:
         values = [r[key] for r in rows if r[key] is not None]

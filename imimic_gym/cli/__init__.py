@@ -8,73 +8,18 @@ import sys
 from pathlib import Path
 
 import imimic_gym  # noqa: F401  (registers the env, sets headless GL)
-
-
-class CommandError(SystemExit):
-    """A user's mistake on the command line: `main` prints it in one line on stderr and
-    the command exits with code 2 (a traceback is for bugs)."""
-
-    def __init__(self, message: str) -> None:
-        super().__init__(2)
-        self.message = message
-
-    def __str__(self) -> str:
-        return self.message
-
-
-def _at_least(low: int):
-    """An argparse type: a whole number >= ``low`` (argparse says so in one line, exit 2)."""
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-        if value < low:
-            raise argparse.ArgumentTypeError(f"expected a whole number of at least {low}, "
-                                             f"got {value}")
-        return value
-
-    parse.__name__ = f"integer >= {low}"
-    return parse
-
-
-def _positive(text: str) -> float:
-    """An argparse type: a finite number > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (value > 0 and value != float("inf")):
-        raise argparse.ArgumentTypeError(f"expected a finite number above 0, got {text}")
-    return value
-
+from imimic_gym.cli.common import (
+    CommandError,
+    at_least,
+    estimator_names,
+    positive,
+    print_table,
+    save_json,
+)
+from imimic_gym.cli.evaluate import add_eval
 
 # What `imimic mimic` runs unless told: it finds a person and their moving arm by itself.
 MIMIC_ESTIMATOR = "pose"
-
-
-def _estimator_names(video_only: bool = False) -> tuple[str, ...]:
-    """The registered estimators (`estimators.registry`) for ``--estimator`` choices;
-    ``video_only`` leaves out those that read the truth rather than the video."""
-    from imimic_gym.estimators.registry import ESTIMATORS
-
-    return tuple(name for name, entry in ESTIMATORS.items()
-                 if not (video_only and entry.needs_truth))
-
-
-def _save_json(path: str | None, data: object) -> None:
-    """Write ``data`` as JSON to ``path`` (folders made as needed); nothing if no path."""
-    if path:
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
-        Path(path).write_text(json.dumps(data, indent=2) + "\n")
-        print(f"wrote {path}")
-
-
-def _print_table(rows: dict[str, object]) -> None:
-    width = max(len(k) for k in rows)
-    for key, value in rows.items():
-        shown = f"{value:.3f}" if isinstance(value, float) else str(value)
-        print(f"  {key:<{width}}  {shown}")
 
 
 def _demo_estimator(requested: str | None, scenario: str) -> str:
@@ -140,7 +85,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     }
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     print(f"wrote {out / 'demo.mp4'}, {out / 'angles.png'}, {out / 'metrics.json'}")
-    _print_table(metrics)
+    print_table(metrics)
     return 0
 
 
@@ -175,141 +120,6 @@ def cmd_clip(args: argparse.Namespace) -> int:
     }) + "\n")
     print(f"wrote {stem.with_suffix('.mp4')} and {stem.with_suffix('.json')} "
           f"({len(clip)} frames, {clip.width}x{clip.height}, {clip.fps:g} fps)")
-    return 0
-
-
-def cmd_eval(args: argparse.Namespace) -> int:
-    from imimic_gym.evaluation import evaluate_estimator
-
-    if args.photos or args.images:
-        return _cmd_eval_photos(args)
-    if args.paper or args.controller:
-        return _cmd_eval_suite(args)
-    from imimic_gym.estimators.registry import get_estimator
-
-    truth = [name for name in args.estimator if get_estimator(name).needs_truth]
-    if truth:
-        raise CommandError(f"imimic eval: the {truth[0]} estimator is the truth itself; score "
-                         "it with a controller (--controller ...) or use an estimator that "
-                         "reads the video")
-    results = []
-    for scenario in args.scenario:
-        for estimator in args.estimator:
-            try:
-                result = evaluate_estimator(scenario, estimator, episodes=args.episodes,
-                                            first_seed=args.first_seed,
-                                            modality=args.modality)
-            except ValueError as error:  # e.g. a several-link scenario for a 1-link one
-                raise CommandError(f"imimic eval: {scenario!r}: {error}") from error
-            results.append(result)
-            mean = result["mean"]
-            occluded = ""
-            if "rmse_occluded_deg_prediction_on" in mean:
-                occluded = (f"  occluded: {mean['rmse_occluded_deg_prediction_off']:.1f} "
-                            f"(prediction off) / {mean['rmse_occluded_deg_prediction_on']:.1f} "
-                            f"(on)")
-            print(f"{scenario:20s} {estimator:9s} rmse {mean['rmse_deg']:6.2f} deg, "
-                  f"settled {mean['rmse_deg_settled']:6.2f} deg, lag "
-                  f"{mean['lag_frames']:5.1f} frames, eta {mean['mean_trust']:.2f}{occluded}",
-                  flush=True)
-    _save_json(args.json, results)
-    return 0
-
-
-def _cell(item: dict) -> str:
-    """"value (low-high)" of a `metrics.with_interval` result."""
-    if item["value"] is None:
-        return "-"
-    return f"{item['value']:.2f} ({item['low']:.2f}-{item['high']:.2f})"
-
-
-def _cmd_eval_photos(args: argparse.Namespace) -> int:
-    """`imimic eval --photos F --images DIR`: PCP and elbow error on annotated photos."""
-    from imimic_gym.clips.annotations import AnnotationError
-    from imimic_gym.evaluation import evaluate_photos
-
-    if not (args.photos and args.images):
-        raise CommandError("imimic eval: --photos (a COCO-keypoints file) and --images (the "
-                         "folder of its photos) go together")
-    results = []
-    for estimator in args.estimator:
-        try:
-            result = evaluate_photos(args.photos, args.images, estimator)
-        except (ValueError, AnnotationError, FileNotFoundError) as error:
-            raise CommandError(f"imimic eval: {error}") from error
-        print(f"{estimator:10s} PCP@0.5 upper {_cell(result['pcp_upper'])}, lower "
-              f"{_cell(result['pcp_lower'])}; elbow error median "
-              f"{_cell(result['elbow_error_deg_median'])} deg; keypoints on "
-              f"{result['found']} of {result['photos']} photos (95% bootstrap intervals)",
-              flush=True)
-        results.append(result)
-    _save_json(args.json, results)
-    return 0
-
-
-def _suite_table(results: list[dict]) -> str:
-    """Markdown table of the suite's means, one row per scenario x estimator x controller."""
-
-    def shown(value: float | None, digits: int) -> str:
-        return "-" if value is None else f"{value:.{digits}f}"
-
-    lines = ["| scenario | estimator | controller | RMSE (deg) | max (deg) | lag (frames) | "
-             "jerk (deg/s^3) | recovery (s) | mean eta | seeds |", "|" + "---|" * 10]
-    for r in results:
-        m = r["mean"]
-        lines.append(
-            f"| `{r['scenario']}` | {r['estimator']} | {r['controller']} | "
-            f"{m['rmse_deg']:.2f} | {m['max_error_deg']:.1f} | {m['lag_frames']:.1f} | "
-            f"{shown(m['jerk_deg_s3'], 0)} | {shown(m['recovery_s'], 2)} | "
-            f"{shown(m['mean_trust'], 2)} | {r['episodes']} |")
-    return "\n".join(lines)
-
-
-def _cmd_eval_suite(args: argparse.Namespace) -> int:
-    """`imimic eval --controller ...` or `--paper`: the tracking suite."""
-    from imimic_gym.clips.scenarios import get_scenario
-    from imimic_gym.estimators.registry import get_estimator
-    from imimic_gym.paper import paper_configs, paper_table
-    from imimic_gym.plots import plot_tracking
-    from imimic_gym.suite import RunConfig, run_suite
-
-    seeds = tuple(range(args.first_seed, args.first_seed + args.episodes))
-    if args.paper:
-        configs = paper_configs(seeds, args.frames)
-    else:
-        configs, skipped = [], []
-        for scenario in args.scenario:
-            n_links = get_scenario(scenario).n_links
-            for controller in args.controller:
-                for estimator in args.estimator:
-                    if (n_links not in get_estimator(estimator).links
-                            or (n_links != 1 and controller == "learned")):
-                        skipped.append(f"{scenario}/{estimator}/{controller}")
-                        continue
-                    configs.append(RunConfig(scenario, estimator, controller, seeds,
-                                             args.frames))
-                    if controller == "oracle":
-                        break  # the oracle controller ignores the estimate: one run is enough
-        if skipped:
-            print("skipped (an estimator that does not follow this many links, or the "
-                  "learned policy, which follows one): " + ", ".join(skipped))
-    out = Path(args.out)
-    (out / "plots").mkdir(parents=True, exist_ok=True)
-
-    def plot(config: RunConfig, trajectory) -> None:
-        name = f"{config.scenario}__{config.estimator}__{config.controller}"
-        plot_tracking(trajectory, out / "plots" / f"{name}.png",
-                      title=f"{config.scenario}, seed {config.seeds[0]}: {config.estimator} "
-                            f"+ {config.controller}")
-
-    results = run_suite(configs, num_envs=args.num_envs, on_trajectory=plot)
-    table = _suite_table(results)
-    if args.paper:
-        table = paper_table(results) + "\n\n" + table
-    print(table)
-    (out / "eval.md").write_text(table + "\n")
-    print(f"wrote {out / 'eval.md'} and {len(results)} plots in {out / 'plots'}")
-    _save_json(args.json, results)
     return 0
 
 
@@ -354,7 +164,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     result["render_frames_per_s"] = bench_render()
     for name, fps in result["render_frames_per_s"].items():
         print(f"  {name:20s} {fps:6.0f}")
-    _save_json(args.json, result)
+    save_json(args.json, result)
     return 0
 
 
@@ -376,7 +186,7 @@ def _bench_don(args: argparse.Namespace, result: dict[str, object]) -> int:
     print("time against N and detected area against light (paper Fig. 3)...")
     result["figure3"] = don_window_and_lighting(prefix)
     print(f"  wrote {prefix}_window.png and {prefix}_lighting.png")
-    _save_json(args.json, result)
+    save_json(args.json, result)
     return 0
 
 
@@ -468,7 +278,7 @@ def _mimic(args: argparse.Namespace) -> int:
     out = Path(args.out)
     print(f"{summary['ended']}: wrote {out / 'mimic.mp4'}, {out / 'angles.png'}, "
           f"{out / 'mimic.csv'}, {out / 'mimic.json'}")
-    _print_table({k: v for k, v in summary.items() if k not in ("source",)})
+    print_table({k: v for k, v in summary.items() if k not in ("source",)})
     return 0
 
 
@@ -540,7 +350,7 @@ def _add_mimic(sub: argparse._SubParsersAction) -> None:
                        help="a live camera index (0) or stream URL; shows frames/s and "
                             "latency, stops on Ctrl-C or when the camera disappears")
     mimic.add_argument("--estimator", default=MIMIC_ESTIMATOR,
-                       choices=_estimator_names(video_only=True),
+                       choices=estimator_names(video_only=True),
                        help="the vision estimator (default: %(default)s, which finds a "
                             "person by itself; don is the paper's, for a lone moving link "
                             "such as the servo)")
@@ -564,16 +374,16 @@ def _add_mimic(sub: argparse._SubParsersAction) -> None:
                             "default: auto, the arm that moves)")
     mimic.add_argument("--pivot", type=float, nargs=2, default=None, metavar=("X", "Y"),
                        help="the joint's pixel position if known (default: found by DON)")
-    mimic.add_argument("--fps", type=_positive, default=None,
+    mimic.add_argument("--fps", type=positive, default=None,
                        help="frame rate for sources that report none (image patterns; "
                             "cameras default to 30)")
-    mimic.add_argument("--max-seconds", type=_positive, default=None,
+    mimic.add_argument("--max-seconds", type=positive, default=None,
                        help="stop after this much footage, seconds (default: the whole "
                             "file; a camera runs until Ctrl-C)")
     mimic.add_argument("--serial", default=None, metavar="PORT",
                        help="also drive a servo controller on this serial port "
                             "(protocol: imimic_gym/servo.py; sketch: firmware/servo_arm/)")
-    mimic.add_argument("--baud", type=_at_least(1), default=115200,
+    mimic.add_argument("--baud", type=at_least(1), default=115200,
                        help="serial speed (default: %(default)s)")
     mimic.add_argument("--servo-range", type=float, nargs=2, default=(0.0, 120.0),
                        metavar=("LOW", "HIGH"),
@@ -589,6 +399,16 @@ def _add_mimic(sub: argparse._SubParsersAction) -> None:
                             "estimator still reads full frames; 0 keeps the footage's size)")
     mimic.add_argument("--out", default="mimic_out", help="output folder (default: %(default)s)")
     mimic.set_defaults(func=cmd_mimic)
+
+
+def _add_clip_choice(parser: argparse.ArgumentParser, names: list[str],
+                     scenario: str) -> None:
+    """--scenario, --seed and --frames: which rendered clip."""
+    parser.add_argument("--scenario", default=scenario, choices=names,
+                        help="which demonstrator clip (default: %(default)s)")
+    parser.add_argument("--seed", type=int, default=0, help="clip seed (default: %(default)s)")
+    parser.add_argument("--frames", type=at_least(2), default=None,
+                        help="clip length in frames (default: the scenario's, 150 = 5 s)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -608,19 +428,15 @@ def build_parser() -> argparse.ArgumentParser:
                     "(video and robot side by side), angles.png (human vs robot angle and the "
                     "error over time) and metrics.json (RMSE, max error, lag).",
     )
-    demo.add_argument("--scenario", default="exp2-servo", choices=names,
-                      help="which demonstrator clip (default: %(default)s)")
-    demo.add_argument("--seed", type=int, default=0, help="clip seed (default: %(default)s)")
+    _add_clip_choice(demo, names, "exp2-servo")
     demo.add_argument("--control", default="position", choices=("position", "velocity", "torque"),
                       help="robot actuation (default: %(default)s, the paper's servo)")
-    demo.add_argument("--estimator", default=None, choices=_estimator_names(),
+    demo.add_argument("--estimator", default=None, choices=estimator_names(),
                       help="where the robot's targets come from: DON on the video (1 to 3 "
                            "links), the CNN + refiner (a person's arm, 1 or 2 links), the "
                            "MOG2 or CamShift baseline (1 link), or the true angles (oracle: "
                            "the control loop's upper bound, no vision); default: don for 1 "
                            "or 2 links, oracle for the others")
-    demo.add_argument("--frames", type=_at_least(2), default=None,
-                      help="clip length in frames (default: the scenario's, 150 = 5 s)")
     demo.add_argument("--out", default="demo_out", help="output folder (default: %(default)s)")
     demo.set_defaults(func=cmd_demo)
 
@@ -630,69 +446,11 @@ def build_parser() -> argparse.ArgumentParser:
                     "<scenario>-seed<k>.mp4 and .json with the per-frame ground truth: joint "
                     "angles, velocities, accelerations, keypoints, visibility, occlusion.",
     )
-    clip.add_argument("--scenario", default="default", choices=names,
-                      help="scenario name (default: %(default)s)")
-    clip.add_argument("--seed", type=int, default=0, help="clip seed (default: %(default)s)")
-    clip.add_argument("--frames", type=_at_least(2), default=None,
-                      help="clip length in frames")
+    _add_clip_choice(clip, names, "default")
     clip.add_argument("--out", default="clips_out", help="output folder (default: %(default)s)")
     clip.set_defaults(func=cmd_clip)
 
-    evaluate = sub.add_parser(
-        "eval", help="score estimators, or estimator + controller pairs, on held-out clips",
-        description="Without --controller: run each estimator over held-out clips (seeds from "
-                    "--first-seed) of each scenario and print the angle RMSE (all frames, and "
-                    "after 0.5 s of warm-up: frame differencing sees nothing before the arm "
-                    "moves), lag, mean trust factor, and for occluded frames the RMSE with "
-                    "DON's prediction layer off and on. With --controller: the tracking suite, "
-                    "scenarios x estimators x controllers, each through a plain Gymnasium "
-                    "loop; prints a markdown table (RMSE, max error, lag, jerk, recovery after "
-                    "occlusion, mean eta), saves it and Fig. 4-style plots in --out. --paper "
-                    "runs the paper's experiments 1-4 against its statements.",
-    )
-    evaluate.add_argument("--scenario", nargs="+", default=["exp2-servo"],
-                          choices=names,
-                          help="one or more scenarios (default: %(default)s; DON follows 1 to 3 "
-                               "links, the other estimators one)")
-    from imimic_gym.suite import CONTROLLERS
-
-    evaluate.add_argument("--estimator", nargs="+", default=["don"],
-                          choices=_estimator_names(),
-                          help="default: %(default)s; oracle (the true angles) only with "
-                               "--controller")
-    evaluate.add_argument("--episodes", type=_at_least(1), default=3,
-                          help="clips per scenario")
-    evaluate.add_argument("--modality", default="rgb", choices=("rgb", "depth"),
-                          help="the colour video, or the depth video as grey frames "
-                               "(default: %(default)s)")
-    evaluate.add_argument("--first-seed", type=int, default=1000,
-                          help="first held-out clip seed (default: %(default)s)")
-    evaluate.add_argument("--json", default=None, help="also write the results to this file")
-    evaluate.add_argument("--photos", default=None, metavar="ANNOTATIONS",
-                          help="score on annotated photos instead: a COCO-keypoints file "
-                               "(persons or arms); with --images; estimators that read a "
-                               "frame alone (pose, cnn): PCP@0.5 of upper and lower arm and "
-                               "the elbow-angle error")
-    evaluate.add_argument("--images", default=None, metavar="DIR",
-                          help="the folder of --photos' images")
-    evaluate.add_argument("--controller", nargs="+", default=None, choices=tuple(CONTROLLERS),
-                          help="run the tracking suite with these controllers: oracle (true "
-                               "angles, the upper bound), position (the paper's servo), "
-                               "velocity, torque (each keeps the start pose until the "
-                               "estimator's first reading), learned "
-                               "(the shipped policy)")
-    evaluate.add_argument("--paper", action="store_true",
-                          help="the paper's experiments 1-4 (DON + position and learned "
-                               "controllers) as one table against the paper's statements")
-    evaluate.add_argument("--num-envs", type=_at_least(1), default=1,
-                          help="clips stepped at once through gym.make_vec, one process each "
-                               "(default: %(default)s)")
-    evaluate.add_argument("--frames", type=_at_least(2), default=None,
-                          help="suite only: clip length in frames (default: the scenario's)")
-    evaluate.add_argument("--out", default="eval_out",
-                          help="suite only: folder for eval.md and plots/ (default: "
-                               "%(default)s)")
-    evaluate.set_defaults(func=cmd_eval)
+    add_eval(sub, names)
 
     scen = sub.add_parser("scenarios", help="list the named scenarios and their settings")
     scen.set_defaults(func=cmd_scenarios)
@@ -719,8 +477,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     bench.add_argument("what", choices=("env", "don"), help="which benchmark")
     bench.add_argument("--json", default=None, help="also write the results to this file")
-    bench.add_argument("--steps", type=_at_least(1), default=3000, help="steps per timed run")
-    bench.add_argument("--repeats", type=_at_least(1), default=5,
+    bench.add_argument("--steps", type=at_least(1), default=3000, help="steps per timed run")
+    bench.add_argument("--repeats", type=at_least(1), default=5,
                        help="alternating timed runs per env")
     bench.set_defaults(func=cmd_bench)
     _add_mimic(sub)
@@ -744,6 +502,3 @@ def main(argv: list[str] | None = None) -> int:
         print(f"imimic {args.command}: {error}", file=sys.stderr)
         return 2
 
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,0 +1,314 @@
+"""`imimic eval`: estimators alone, the tracking suite or the paper's experiments on
+held-out clips, or estimators on annotated photos; here or as a sweep on Ray."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from imimic_gym.cli.common import CommandError, at_least, estimator_names, save_json
+
+
+def cmd_eval(args: argparse.Namespace) -> int:
+    sweep = args.backend == "ray" or args.results is not None
+    if args.photos or args.images:
+        if sweep:
+            raise CommandError("imimic eval: --photos runs here; --backend ray and --results "
+                               "are for clips")
+        return _cmd_eval_photos(args)
+    if args.address and args.backend != "ray":
+        raise CommandError("imimic eval: --address is the Ray cluster of --backend ray")
+    if args.resume and args.results is None:
+        raise CommandError("imimic eval: --resume needs --results FILE, the journal of the "
+                           "sweep to resume")
+    if sweep and args.num_envs > 1:
+        raise CommandError("imimic eval: --num-envs steps clips together in one run; a "
+                           "sweep (--backend ray or --results) runs one cell per clip instead")
+    if args.paper or args.controller:
+        return _cmd_eval_suite(args, sweep)
+    from imimic_gym.clips.scenarios import get_scenario
+    from imimic_gym.estimators.registry import get_estimator
+
+    truth = [name for name in args.estimator if get_estimator(name).needs_truth]
+    if truth:
+        raise CommandError(f"imimic eval: the {truth[0]} estimator is the truth itself; score "
+                         "it with a controller (--controller ...) or use an estimator that "
+                         "reads the video")
+    if sweep:
+        for scenario in args.scenario:
+            n_links = get_scenario(scenario).n_links
+            for estimator in args.estimator:
+                links = get_estimator(estimator).links
+                if n_links not in links:
+                    raise CommandError(f"imimic eval: {scenario!r} has {n_links} moving "
+                                       f"links; {estimator} follows {links}")
+        from imimic_gym.sweep import Cell
+
+        cells = [Cell(scenario, estimator, None, seed, args.frames, args.modality)
+                 for scenario in args.scenario for estimator in args.estimator
+                 for seed in _seeds(args)]
+        results, failed, _ = _run_sweep(cells, args)
+        for result in results:
+            _print_estimator_result(result)
+        save_json(args.json, results)
+        return _report_failures(failed, args)
+    from imimic_gym.evaluation import evaluate_estimator
+
+    results = []
+    for scenario in args.scenario:
+        for estimator in args.estimator:
+            try:
+                result = evaluate_estimator(scenario, estimator, episodes=args.episodes,
+                                            first_seed=args.first_seed,
+                                            modality=args.modality, frames=args.frames)
+            except ValueError as error:  # e.g. a several-link scenario for a 1-link one
+                raise CommandError(f"imimic eval: {scenario!r}: {error}") from error
+            results.append(result)
+            _print_estimator_result(result)
+    save_json(args.json, results)
+    return 0
+
+
+def _seeds(args: argparse.Namespace) -> tuple[int, ...]:
+    return tuple(range(args.first_seed, args.first_seed + args.episodes))
+
+
+def _print_estimator_result(result: dict) -> None:
+    mean = result["mean"]
+    occluded = ""
+    if "rmse_occluded_deg_prediction_on" in mean:
+        occluded = (f"  occluded: {mean['rmse_occluded_deg_prediction_off']:.1f} "
+                    f"(prediction off) / {mean['rmse_occluded_deg_prediction_on']:.1f} (on)")
+    print(f"{result['scenario']:20s} {result['estimator']:9s} rmse {mean['rmse_deg']:6.2f} "
+          f"deg, settled {mean['rmse_deg_settled']:6.2f} deg, lag {mean['lag_frames']:5.1f} "
+          f"frames, eta {mean['mean_trust']:.2f}{occluded}", flush=True)
+
+
+def _run_sweep(cells: list, args: argparse.Namespace) -> tuple[list[dict], dict, dict]:
+    """Run ``cells`` as a sweep (`sweep.run_sweep`): the results per configuration, the
+    failed cells' errors and each finished cell's row."""
+    from imimic_gym.backends import BackendError
+    from imimic_gym.sweep import SweepError, run_sweep, summaries
+
+    try:
+        outcome = run_sweep(cells, journal=args.results, resume=args.resume,
+                            backend=args.backend, address=args.address)
+    except (BackendError, SweepError) as error:
+        raise CommandError(f"imimic eval: {error}") from error
+    skipped = len(cells) - len(outcome.computed)
+    if skipped:
+        print(f"{skipped} of {len(cells)} cells taken from {args.results}")
+    return summaries(cells, outcome.rows), outcome.failures, outcome.rows
+
+
+def _report_failures(failed: dict, args: argparse.Namespace) -> int:
+    """Exit code 1 and the failed cells by name (their errors are in the journal)."""
+    if not failed:
+        return 0
+    print(f"{len(failed)} cells failed (the others' results are kept"
+          + ("; rerun with --resume to retry only them" if args.results else "") + "):")
+    for cell, error in failed.items():
+        print(f"  {cell.name}: {error}")
+    return 1
+
+
+def _cell(item: dict) -> str:
+    """"value (low-high)" of a `metrics.with_interval` result."""
+    if item["value"] is None:
+        return "-"
+    return f"{item['value']:.2f} ({item['low']:.2f}-{item['high']:.2f})"
+
+
+def _cmd_eval_photos(args: argparse.Namespace) -> int:
+    """`imimic eval --photos F --images DIR`: PCP and elbow error on annotated photos."""
+    from imimic_gym.clips.annotations import AnnotationError
+    from imimic_gym.evaluation import evaluate_photos
+
+    if not (args.photos and args.images):
+        raise CommandError("imimic eval: --photos (a COCO-keypoints file) and --images (the "
+                         "folder of its photos) go together")
+    results = []
+    for estimator in args.estimator:
+        try:
+            result = evaluate_photos(args.photos, args.images, estimator)
+        except (ValueError, AnnotationError, FileNotFoundError) as error:
+            raise CommandError(f"imimic eval: {error}") from error
+        print(f"{estimator:10s} PCP@0.5 upper {_cell(result['pcp_upper'])}, lower "
+              f"{_cell(result['pcp_lower'])}; elbow error median "
+              f"{_cell(result['elbow_error_deg_median'])} deg; keypoints on "
+              f"{result['found']} of {result['photos']} photos (95% bootstrap intervals)",
+              flush=True)
+        results.append(result)
+    save_json(args.json, results)
+    return 0
+
+
+def _suite_table(results: list[dict]) -> str:
+    """Markdown table of the suite's means, one row per scenario x estimator x controller."""
+
+    def shown(value: float | None, digits: int) -> str:
+        return "-" if value is None else f"{value:.{digits}f}"
+
+    lines = ["| scenario | estimator | controller | RMSE (deg) | max (deg) | lag (frames) | "
+             "jerk (deg/s^3) | recovery (s) | mean eta | seeds |", "|" + "---|" * 10]
+    for r in results:
+        m = r["mean"]
+        lines.append(
+            f"| `{r['scenario']}` | {r['estimator']} | {r['controller']} | "
+            f"{m['rmse_deg']:.2f} | {m['max_error_deg']:.1f} | {m['lag_frames']:.1f} | "
+            f"{shown(m['jerk_deg_s3'], 0)} | {shown(m['recovery_s'], 2)} | "
+            f"{shown(m['mean_trust'], 2)} | {r['episodes']} |")
+    return "\n".join(lines)
+
+
+def _suite_configs(args: argparse.Namespace) -> list:
+    """The suite's runs: the paper's, or scenarios x controllers x estimators (less the
+    pairs that cannot run, said in one line; one run of the oracle controller)."""
+    from imimic_gym.clips.scenarios import get_scenario
+    from imimic_gym.estimators.registry import get_estimator
+    from imimic_gym.paper import paper_configs
+    from imimic_gym.suite import RunConfig
+
+    seeds = _seeds(args)
+    if args.paper:
+        return paper_configs(seeds, args.frames)
+    configs, skipped = [], []
+    for scenario in args.scenario:
+        n_links = get_scenario(scenario).n_links
+        for controller in args.controller:
+            for estimator in args.estimator:
+                if (n_links not in get_estimator(estimator).links
+                        or (n_links != 1 and controller == "learned")):
+                    skipped.append(f"{scenario}/{estimator}/{controller}")
+                    continue
+                configs.append(RunConfig(scenario, estimator, controller, seeds, args.frames))
+                if controller == "oracle":
+                    break  # the oracle controller ignores the estimate: one run is enough
+    if skipped:
+        print("skipped (an estimator that does not follow this many links, or the "
+              "learned policy, which follows one): " + ", ".join(skipped))
+    return configs
+
+
+def _cmd_eval_suite(args: argparse.Namespace, sweep: bool) -> int:
+    """`imimic eval --controller ...` or `--paper`: the tracking suite."""
+    from imimic_gym.paper import paper_table
+    from imimic_gym.plots import plot_tracking
+    from imimic_gym.rollout import Trajectory
+    from imimic_gym.suite import run_suite
+
+    configs = _suite_configs(args)
+    out = Path(args.out)
+    (out / "plots").mkdir(parents=True, exist_ok=True)
+
+    def plot(config, trajectory: Trajectory) -> None:
+        name = f"{config.scenario}__{config.estimator}__{config.controller}"
+        plot_tracking(trajectory, out / "plots" / f"{name}.png",
+                      title=f"{config.scenario}, seed {config.seeds[0]}: {config.estimator} "
+                            f"+ {config.controller}")
+
+    failed: dict = {}
+    if sweep:
+        from imimic_gym.sweep import Cell
+
+        cells = [Cell(c.scenario, c.estimator, c.controller, seed, c.frames,
+                      trajectory=seed == c.seeds[0]) for c in configs for seed in c.seeds]
+        results, failed, rows = _run_sweep(cells, args)
+        for cell in cells:
+            series = rows.get(cell, {}).get("trajectory") if cell.trajectory else None
+            if series is not None:
+                config = next(c for c in configs if (c.scenario, c.estimator, c.controller)
+                              == (cell.scenario, cell.estimator, cell.controller))
+                trust = series["trust"]
+                plot(config, Trajectory(
+                    time=np.asarray(series["time"]), target=np.asarray(series["target"]),
+                    robot=np.asarray(series["robot"]), reward=np.asarray(series["reward"]),
+                    occlusion=np.asarray(series["occlusion"]),
+                    trust=None if trust is None else np.asarray(trust)))
+    else:
+        results = run_suite(configs, num_envs=args.num_envs, on_trajectory=plot)
+    table = _suite_table(results)
+    if args.paper:
+        table = paper_table(results) + "\n\n" + table
+    print(table)
+    (out / "eval.md").write_text(table + "\n")
+    print(f"wrote {out / 'eval.md'} and {len(results)} plots in {out / 'plots'}")
+    save_json(args.json, results)
+    return _report_failures(failed, args)
+
+
+def add_eval(sub: argparse._SubParsersAction, names: list[str]) -> None:
+    evaluate = sub.add_parser(
+        "eval", help="score estimators, or estimator + controller pairs, on held-out clips",
+        description="Without --controller: run each estimator over held-out clips (seeds from "
+                    "--first-seed) of each scenario and print the angle RMSE (all frames, and "
+                    "after 0.5 s of warm-up: frame differencing sees nothing before the arm "
+                    "moves), lag, mean trust factor, and for occluded frames the RMSE with "
+                    "DON's prediction layer off and on. With --controller: the tracking suite, "
+                    "scenarios x estimators x controllers, each through a plain Gymnasium "
+                    "loop; prints a markdown table (RMSE, max error, lag, jerk, recovery after "
+                    "occlusion, mean eta), saves it and Fig. 4-style plots in --out. --paper "
+                    "runs the paper's experiments 1-4 against its statements.",
+    )
+    evaluate.add_argument("--scenario", nargs="+", default=["exp2-servo"],
+                          choices=names,
+                          help="one or more scenarios (default: %(default)s; DON follows 1 to 3 "
+                               "links, the other estimators one)")
+    from imimic_gym.suite import CONTROLLERS
+
+    evaluate.add_argument("--estimator", nargs="+", default=["don"],
+                          choices=estimator_names(),
+                          help="default: %(default)s; oracle (the true angles) only with "
+                               "--controller")
+    evaluate.add_argument("--episodes", type=at_least(1), default=3,
+                          help="clips per scenario")
+    evaluate.add_argument("--modality", default="rgb", choices=("rgb", "depth"),
+                          help="the colour video, or the depth video as grey frames "
+                               "(default: %(default)s)")
+    evaluate.add_argument("--first-seed", type=int, default=1000,
+                          help="first held-out clip seed (default: %(default)s)")
+    evaluate.add_argument("--json", default=None, help="also write the results to this file")
+    evaluate.add_argument("--photos", default=None, metavar="ANNOTATIONS",
+                          help="score on annotated photos instead: a COCO-keypoints file "
+                               "(persons or arms); with --images; estimators that read a "
+                               "frame alone (pose, cnn): PCP@0.5 of upper and lower arm and "
+                               "the elbow-angle error")
+    evaluate.add_argument("--images", default=None, metavar="DIR",
+                          help="the folder of --photos' images")
+    evaluate.add_argument("--controller", nargs="+", default=None, choices=tuple(CONTROLLERS),
+                          help="run the tracking suite with these controllers: oracle (true "
+                               "angles, the upper bound), position (the paper's servo), "
+                               "velocity, torque (each keeps the start pose until the "
+                               "estimator's first reading), learned "
+                               "(the shipped policy)")
+    evaluate.add_argument("--paper", action="store_true",
+                          help="the paper's experiments 1-4 (DON + position and learned "
+                               "controllers) as one table against the paper's statements")
+    evaluate.add_argument("--num-envs", type=at_least(1), default=1,
+                          help="clips stepped at once through gym.make_vec, one process each "
+                               "(default: %(default)s)")
+    evaluate.add_argument("--frames", type=at_least(2), default=None,
+                          help="clip length in frames (default: the scenario's)")
+    evaluate.add_argument("--out", default="eval_out",
+                          help="suite only: folder for eval.md and plots/ (default: "
+                               "%(default)s)")
+    from imimic_gym.backends import BACKENDS
+
+    evaluate.add_argument("--backend", default="local", choices=BACKENDS,
+                          help="local: this process (default); ray: one Ray task per "
+                               "(scenario, estimator, controller, seed) cell on a local Ray "
+                               "or the cluster at --address (pip install "
+                               "'imimic_gym[ray]'); the same numbers either way")
+    evaluate.add_argument("--address", default=None, metavar="ADDR",
+                          help="ray only: an existing cluster ('auto', 'ray://host:10001', "
+                               "'host:6379'); default: start a local Ray on this machine's CPUs")
+    evaluate.add_argument("--results", default=None, metavar="FILE.jsonl",
+                          help="run cell by cell and append each finished cell's per-seed "
+                               "metrics to this JSON-lines journal as it finishes, so an "
+                               "interrupted sweep can --resume")
+    evaluate.add_argument("--resume", action="store_true",
+                          help="with --results: take the cells already in the journal and "
+                               "run only the missing or failed ones")
+    evaluate.set_defaults(func=cmd_eval)
