@@ -29,3 +29,14 @@ def servo_mp4(servo_clip, tmp_path_factory: pytest.TempPathFactory):
 
     return write_video(tmp_path_factory.mktemp("video") / "servo.mp4", servo_clip.frames,
                        servo_clip.fps)
+
+
+@pytest.fixture(scope="module")
+def local_ray():
+    """A real Ray on this machine (the ray extra; make setup installs it): 2 CPUs, no
+    dashboard. The code under test joins it rather than starting its own."""
+    import ray
+
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    yield ray
+    ray.shutdown()

@@ -15,17 +15,8 @@ from imimic_gym.evaluation import evaluate_estimator
 from imimic_gym.suite import RunConfig, run_config, summarise
 from imimic_gym.sweep import Cell, SweepError, read_journal, run_sweep, summaries
 
-ray = pytest.importorskip("ray", reason="the ray extra (make setup installs it)")
 FRAMES = 24
 SEEDS = (7, 8)
-
-
-@pytest.fixture(scope="module")
-def local_ray():
-    """A real Ray on this machine, as the issue's acceptance asks: 2 CPUs, no dashboard."""
-    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
-    yield ray
-    ray.shutdown()
 
 
 def _cells() -> list[Cell]:

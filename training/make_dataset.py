@@ -6,6 +6,7 @@ The shipped files were made with the defaults:
 Each writes ``<out>/arm<links>_train.json`` (56 clips x 4 frames = 224 images) and
 ``<out>/arm<links>_test.json`` (19 clips x 4 = 76 images): the paper's 300-image split.
 Bigger training sets for the learning curve: ``--train-clips 750 --name arm1_3000``.
+``--backend ray [--address ADDR]`` renders one clip per Ray task (the same files).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
+from imimic_gym.backends import BACKENDS, BackendError
 from imimic_gym.clips.annotations import write_annotations
 from imimic_gym.clips.dataset import DEFAULT_ANNOTATIONS, IMAGES_PER_CLIP, generate_arms
 
@@ -35,6 +37,11 @@ def main() -> None:
                         help="file stem (default: arm<links>); writes <name>_train.json")
     parser.add_argument("--out", default=str(DEFAULT_ANNOTATIONS),
                         help="output folder (default: the shipped annotations/)")
+    parser.add_argument("--backend", default="local", choices=BACKENDS,
+                        help="render here (default) or one Ray task per clip (pip install "
+                             "'imimic_gym[ray]')")
+    parser.add_argument("--address", default=None, metavar="ADDR",
+                        help="--backend ray: an existing cluster (default: a local Ray)")
     args = parser.parse_args()
     name = args.name or f"arm{args.links}"
     offset = 10_000 * (args.links - 1)
@@ -42,8 +49,12 @@ def main() -> None:
                                 ("test", args.test_clips, TEST_SEEDS)):
         if clips == 0:
             continue
-        arms = generate_arms(args.links, clips, first + offset, rng_seed=first + offset,
-                             prefix=f"{name}/{split}")
+        try:
+            arms = generate_arms(args.links, clips, first + offset, rng_seed=first + offset,
+                                 prefix=f"{name}/{split}", backend=args.backend,
+                                 address=args.address)
+        except BackendError as error:
+            parser.exit(2, f"make_dataset.py: {error}\n")
         path = f"{args.out}/{name}_{split}.json"
         write_annotations(path, arms, description=f"imimic_gym rendered arms, {args.links} "
                           f"link(s), {split}: {len(arms)} images")

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import imimic_gym  # noqa: F401  (registers the env, sets headless GL)
+from imimic_gym.cli.cache import add_cache
 from imimic_gym.cli.common import (
     CommandError,
     at_least,
@@ -131,22 +132,6 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
     for name, spec in sorted(SCENARIOS.items()):
         fields = {k: v for k, v in asdict(spec).items() if k not in ("name", "seed")}
         print(f"{name:20s} " + ", ".join(f"{k}={v}" for k, v in fields.items()))
-    return 0
-
-
-def cmd_cache(args: argparse.Namespace) -> int:
-    from imimic_gym.clips.cache import cache_limit_bytes, cache_usage, clear_cache
-
-    try:
-        limit = cache_limit_bytes()
-    except ValueError as err:
-        print(f"imimic cache: error: {err}", file=sys.stderr)
-        return 2
-    if args.clear:
-        print(f"deleted {clear_cache()} cached clips")
-    usage = cache_usage()
-    print(f"{usage.directory}: {usage.clips} clips, {usage.bytes / 1e9:.2f} GB "
-          f"(bound {limit / 1e9:.1f} GB, IMIMIC_CACHE_MAX_GB)")
     return 0
 
 
@@ -455,17 +440,7 @@ def build_parser() -> argparse.ArgumentParser:
     scen = sub.add_parser("scenarios", help="list the named scenarios and their settings")
     scen.set_defaults(func=cmd_scenarios)
 
-    cache = sub.add_parser(
-        "cache", help="show (or --clear) the cache of rendered clips",
-        description="Rendered clips are cached in $IMIMIC_CACHE_DIR (default "
-                    "~/.cache/imimic_gym/clips), about 58 MB per 150-frame clip, and the "
-                    "least recently used are deleted once they pass $IMIMIC_CACHE_MAX_GB "
-                    "(default 20; 'inf' for no bound). Prints the folder, its clips and "
-                    "their size.",
-    )
-    cache.add_argument("--clear", action="store_true",
-                       help="delete every cached clip (they are rendered again when needed)")
-    cache.set_defaults(func=cmd_cache)
+    add_cache(sub, names)
 
     bench = sub.add_parser(
         "bench", help="speed benchmarks, each against a reference measured in the same run",

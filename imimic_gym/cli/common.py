@@ -69,3 +69,36 @@ def print_table(rows: dict[str, object]) -> None:
     for key, value in rows.items():
         shown = f"{value:.3f}" if isinstance(value, float) else str(value)
         print(f"  {key:<{width}}  {shown}")
+
+
+def add_clip_seeds(parser: argparse.ArgumentParser, flag: str = "") -> None:
+    """--episodes, --first-seed, --frames: which clips of each scenario (``flag``: the
+    option they go with, named in their help)."""
+    lead = f"{flag}: " if flag else ""
+    parser.add_argument("--episodes", type=at_least(1), default=3,
+                        help=f"{lead}clips per scenario (default: %(default)s)")
+    parser.add_argument("--first-seed", type=int, default=1000,
+                        help=f"{lead}first clip seed (default: %(default)s, the first "
+                             "held-out one)")
+    parser.add_argument("--frames", type=at_least(2), default=None,
+                        help=f"{lead}clip length in frames (default: the scenario's)")
+
+
+def add_backend(parser: argparse.ArgumentParser, task: str) -> None:
+    """--backend and --address: where the work runs (`backends.fan_out`); ``task`` says
+    what one Ray task does."""
+    from imimic_gym.backends import BACKENDS
+
+    parser.add_argument("--backend", default="local", choices=BACKENDS,
+                        help=f"local: this process (default); ray: one Ray task per {task}, "
+                             "on a local Ray or the cluster at --address (pip install "
+                             "'imimic_gym[ray]')")
+    parser.add_argument("--address", default=None, metavar="ADDR",
+                        help="--backend ray: an existing cluster ('auto', "
+                             "'ray://host:10001', 'host:6379'); default: start a local Ray "
+                             "on this machine's CPUs")
+
+
+def check_backend(args: argparse.Namespace, command: str) -> None:
+    if args.address and args.backend != "ray":
+        raise CommandError(f"imimic {command}: --address is the Ray cluster of --backend ray")

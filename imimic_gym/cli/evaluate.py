@@ -8,7 +8,15 @@ from pathlib import Path
 
 import numpy as np
 
-from imimic_gym.cli.common import CommandError, at_least, estimator_names, save_json
+from imimic_gym.cli.common import (
+    CommandError,
+    add_backend,
+    add_clip_seeds,
+    at_least,
+    check_backend,
+    estimator_names,
+    save_json,
+)
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
@@ -18,8 +26,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
             raise CommandError("imimic eval: --photos runs here; --backend ray and --results "
                                "are for clips")
         return _cmd_eval_photos(args)
-    if args.address and args.backend != "ray":
-        raise CommandError("imimic eval: --address is the Ray cluster of --backend ray")
+    check_backend(args, "eval")
     if args.resume and args.results is None:
         raise CommandError("imimic eval: --resume needs --results FILE, the journal of the "
                            "sweep to resume")
@@ -262,13 +269,9 @@ def add_eval(sub: argparse._SubParsersAction, names: list[str]) -> None:
                           choices=estimator_names(),
                           help="default: %(default)s; oracle (the true angles) only with "
                                "--controller")
-    evaluate.add_argument("--episodes", type=at_least(1), default=3,
-                          help="clips per scenario")
     evaluate.add_argument("--modality", default="rgb", choices=("rgb", "depth"),
                           help="the colour video, or the depth video as grey frames "
                                "(default: %(default)s)")
-    evaluate.add_argument("--first-seed", type=int, default=1000,
-                          help="first held-out clip seed (default: %(default)s)")
     evaluate.add_argument("--json", default=None, help="also write the results to this file")
     evaluate.add_argument("--photos", default=None, metavar="ANNOTATIONS",
                           help="score on annotated photos instead: a COCO-keypoints file "
@@ -289,21 +292,12 @@ def add_eval(sub: argparse._SubParsersAction, names: list[str]) -> None:
     evaluate.add_argument("--num-envs", type=at_least(1), default=1,
                           help="clips stepped at once through gym.make_vec, one process each "
                                "(default: %(default)s)")
-    evaluate.add_argument("--frames", type=at_least(2), default=None,
-                          help="clip length in frames (default: the scenario's)")
+    add_clip_seeds(evaluate)
     evaluate.add_argument("--out", default="eval_out",
                           help="suite only: folder for eval.md and plots/ (default: "
                                "%(default)s)")
-    from imimic_gym.backends import BACKENDS
-
-    evaluate.add_argument("--backend", default="local", choices=BACKENDS,
-                          help="local: this process (default); ray: one Ray task per "
-                               "(scenario, estimator, controller, seed) cell on a local Ray "
-                               "or the cluster at --address (pip install "
-                               "'imimic_gym[ray]'); the same numbers either way")
-    evaluate.add_argument("--address", default=None, metavar="ADDR",
-                          help="ray only: an existing cluster ('auto', 'ray://host:10001', "
-                               "'host:6379'); default: start a local Ray on this machine's CPUs")
+    add_backend(evaluate, "(scenario, estimator, controller, seed) cell; the same numbers "
+                          "either way")
     evaluate.add_argument("--results", default=None, metavar="FILE.jsonl",
                           help="run cell by cell and append each finished cell's per-seed "
                                "metrics to this JSON-lines journal as it finishes, so an "

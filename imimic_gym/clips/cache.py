@@ -26,7 +26,7 @@ import os
 import tempfile
 import zipfile
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -35,7 +35,7 @@ from imimic_gym.clips.synthetic import render_clip
 from imimic_gym.clips.types import Clip, ClipTruth, depth_from_mm, depth_to_mm
 
 __all__ = ["CacheSettingError", "CacheUsage", "cache_dir", "cache_limit_bytes", "cache_path",
-           "cache_usage", "clear_cache", "load_clip", "prune_cache"]
+           "cache_usage", "check_warmed", "clear_cache", "load_clip", "prune_cache", "warm_clip"]
 
 FORMAT_VERSION = 2  # 2: depth stored as whole millimetres (uint16)
 DEFAULT_MAX_GB = 20.0
@@ -217,3 +217,38 @@ def load_clip(spec: ClipSpec, progress: bool = True, use_cache: bool = True) -> 
         _write(path, clip)
         prune_cache(limit, keep=path)
     return clip
+
+
+def warm_clip(spec: ClipSpec) -> dict[str, Any]:
+    """Make sure ``spec``'s clip is in this process's cache (rendered if missing or
+    unusable), read it back whole, and say where it is: ``{"key", "path", "bytes",
+    "sha256", "host"}``. Run on a cluster's workers (`backends.fan_out`), each fills the
+    cache of its node, or the shared folder ``IMIMIC_CACHE_DIR`` names."""
+    from imimic_gym.checkpoints import file_sha256
+
+    load_clip(spec, progress=False)
+    path = cache_path(spec)
+    _read(path, spec)
+    return {"key": spec.key(), "path": str(path), "bytes": path.stat().st_size,
+            "sha256": file_sha256(path), "host": os.uname().nodename}
+
+
+def check_warmed(spec: ClipSpec, warmed: dict[str, Any]) -> bool:
+    """Check what `warm_clip` reported, where this process can see the file: the same
+    bytes, read back whole as ``spec``'s clip. False where the file is not visible here
+    (another node's own cache); raises `ValueError` naming the file if it is not sound."""
+    from imimic_gym.checkpoints import file_sha256
+
+    path = Path(warmed["path"])
+    if not path.is_file():
+        return False
+    try:
+        _read(path, spec)
+        sound = file_sha256(path) == warmed["sha256"]
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as error:
+        raise ValueError(f"cached clip {path} ({spec.name} seed {spec.seed}) does not read "
+                         f"back: {error}") from error
+    if not sound:
+        raise ValueError(f"cached clip {path} ({spec.name} seed {spec.seed}) differs from "
+                         "what its worker wrote")
+    return True

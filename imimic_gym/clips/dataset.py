@@ -81,31 +81,63 @@ def _store(path: Path, rgb: np.ndarray) -> None:
 
 
 def generate_arms(links: int, n_clips: int, first_seed: int, rng_seed: int,
-                  prefix: str, progress: bool = True) -> list[ArmAnnotation]:
+                  prefix: str, progress: bool = True, backend: str = "local",
+                  address: str | None = None) -> list[ArmAnnotation]:
     """Render ``n_clips`` random clips of a ``links``-link demonstrator (seeds from
     ``first_seed``) and label ``IMAGES_PER_CLIP`` distinct frames of each with the true
     shoulder, elbow and wrist; the images go into the cache. ``rng_seed`` draws the
-    clips' settings and frames. File names are ``<prefix>/c<seed>_f<frame>.png``."""
+    clips' settings and frames. File names are ``<prefix>/c<seed>_f<frame>.png``.
+
+    The clips render here or as Ray tasks (``backend``, ``address``: `backends.fan_out`);
+    the images come back to this process, are checked against their workers' hashes and
+    stored here, so the dataset is the same either way."""
+    from imimic_gym.backends import fan_out
+
     rng = np.random.default_rng(rng_seed)
-    arms = []
-    for seed in tqdm(range(first_seed, first_seed + n_clips), desc=f"rendering {prefix}",
-                     disable=not progress, unit="clip"):
+    jobs = []
+    for seed in range(first_seed, first_seed + n_clips):
         spec = _sample_spec(links, seed, rng)
-        frames = np.sort(rng.choice(CLIP_FRAMES, IMAGES_PER_CLIP, replace=False))
-        clip = render_clip(spec, progress=False)
-        assert clip.truth is not None
-        names = clip.truth.keypoint_names
-        index = [names.index(n) for n in ("shoulder", "elbow", "wrist")]
+        jobs.append((spec, tuple(np.sort(rng.choice(CLIP_FRAMES, IMAGES_PER_CLIP,
+                                                    replace=False)).tolist())))
+    rendered = {}
+    for outcome in tqdm(fan_out(_render_labelled, jobs, backend=backend, address=address),
+                        total=len(jobs), desc=f"rendering {prefix} ({backend})",
+                        disable=not progress, unit="clip"):
+        spec = outcome.item[0]
+        if not outcome.ok:
+            raise RuntimeError(f"rendering dataset clip seed {spec.seed} failed after "
+                               f"{outcome.attempts} attempts: {outcome.error}")
+        rendered[spec.seed] = outcome.value
+    arms: list[ArmAnnotation] = []
+    for spec, frames in jobs:
+        images, keypoints, digests = rendered[spec.seed]
         fields = asdict(spec)
         fields.pop("name")
-        for k in frames.tolist():
-            render = {"spec": fields, "frame_index": k, "sha256": _digest(clip.frames[k])}
-            _store(rendered_image_path(render), clip.frames[k])
+        for k, image, points, digest in zip(frames, images, keypoints, digests, strict=True):
+            render = {"spec": fields, "frame_index": k, "sha256": _digest(image)}
+            if render["sha256"] != digest:
+                raise RuntimeError(f"dataset clip seed {spec.seed} frame {k} changed on its "
+                                   "way back from the worker")
+            _store(rendered_image_path(render), image)
             arms.append(ArmAnnotation(
-                file_name=f"{prefix}/c{seed}_f{k:03d}.png", width=spec.width,
-                height=spec.height, keypoints=clip.truth.keypoints[k, index].copy(),
-                labelled=np.ones(3, dtype=bool), image_id=len(arms) + 1, render=render))
+                file_name=f"{prefix}/c{spec.seed}_f{k:03d}.png", width=spec.width,
+                height=spec.height, keypoints=points, labelled=np.ones(3, dtype=bool),
+                image_id=len(arms) + 1, render=render))
     return arms
+
+
+def _render_labelled(job: tuple[ClipSpec, tuple[int, ...]],
+                     ) -> tuple[list[np.ndarray], list[np.ndarray], list[str]]:
+    """One dataset clip's chosen frames (H, W, 3) uint8 RGB, their shoulder, elbow and
+    wrist (3, 2) px, and the frames' hashes."""
+    spec, frames = job
+    clip = render_clip(spec, progress=False)
+    assert clip.truth is not None
+    names = clip.truth.keypoint_names
+    index = [names.index(n) for n in ("shoulder", "elbow", "wrist")]
+    images = [clip.frames[k].copy() for k in frames]
+    return (images, [clip.truth.keypoints[k, index].copy() for k in frames],
+            [_digest(image) for image in images])
 
 
 def _read_rgb(path: Path) -> np.ndarray | None:
