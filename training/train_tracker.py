@@ -9,8 +9,15 @@ held-out seeds start at 1000 and are never seen here). Writes TensorBoard logs t
 ``runs/<run name>/tracker.pt`` and ``tracker.json``), which `LearnedController` loads.
 The shipped policy is replaced only when asked: ``--out imimic_gym/data/checkpoints/tracker.pt``.
 
+``--search KEY=V1,V2 ...`` trains a grid of trials instead (any option below, e.g. seeds
+or a learning rate), each a whole run of this script with its own TensorBoard log in
+``runs/<run name>/trial_<k>``; the trial with the lowest mean validation RMSE is copied to
+``--out``, its metadata listing every trial. ``--backend ray`` runs them as Ray Tune
+trials (``--address``: an existing cluster).
+
     python training/train_tracker.py --out imimic_gym/data/checkpoints/tracker.pt  # shipped
     python training/train_tracker.py --total-timesteps 200          # smoke run, in runs/
+    python training/train_tracker.py --search seed=0,1,2 --backend ray  # pick one of three
 """
 
 from __future__ import annotations
@@ -21,6 +28,8 @@ import json
 import os
 import random
 import shlex
+import shutil
+import subprocess
 import sys
 import tempfile
 import time
@@ -97,6 +106,15 @@ class Args:
     """TensorBoard log folder; the run writes into logdir/<run name>"""
     run_name: str = field(default="")
     """default: tracker__<algorithm>__<seed>__<unix time>"""
+    search: tuple[str, ...] = ()
+    """a grid of trials instead of one run: KEY=V1,V2 ... over the options above (e.g.
+    seed=0,1 learning_rate=1e-3,3e-4); the one with the lowest mean validation RMSE
+    (learned, over the scenarios) goes to --out"""
+    backend: str = "local"
+    """--search: trials one after another here (local) or as Ray Tune trials (ray)"""
+    address: str = ""
+    """--backend ray: an existing Ray cluster ('auto', 'ray://host:10001'); default: a
+    local Ray on this machine's CPUs"""
 
 
 def parse_args() -> Args:
@@ -110,7 +128,7 @@ def parse_args() -> Args:
             parser.add_argument(flag, action=argparse.BooleanOptionalAction, default=default,
                                 help=docs[f.name])
         elif isinstance(default, tuple):
-            kind = type(default[0])
+            kind = type(default[0]) if default else str
             parser.add_argument(flag, nargs="+", type=kind, default=default, help=docs[f.name])
         elif f.name == "frames":
             parser.add_argument(flag, type=int, default=None, help=docs[f.name])
@@ -122,6 +140,8 @@ def parse_args() -> Args:
         parser.error(f"--algorithm must be sac or ppo, got {args.algorithm!r}")
     if args.control not in ("position", "velocity"):
         parser.error(f"--control must be position or velocity, got {args.control!r}")
+    if args.backend not in ("local", "ray"):
+        parser.error(f"--backend must be local or ray, got {args.backend!r}")
     if any(s >= 1000 for s in args.val_seeds) or args.train_seeds > 900:
         parser.error("training and validation clip seeds must stay below 1000 (held out) and "
                      "the training seeds below the validation ones")
@@ -236,6 +256,9 @@ class Progress(BaseCallback):
 
 def main() -> None:
     args = parse_args()
+    if args.search:
+        search(args)
+        return
     args.run_name = args.run_name or f"tracker__{args.algorithm}__{args.seed}__{int(time.time())}"
     if args.total_timesteps < 1:
         print(f"train_tracker.py: --total-timesteps must be at least 1, got "
@@ -327,6 +350,126 @@ def main() -> None:
     print(f"wrote {out} and {out.with_suffix('.json')} after {train_s:.0f} s")
     for key, value in final.items():
         print(f"  {key:40s} {value:6.2f}")
+
+
+# Options a trial takes from the search, not from the grid.
+SEARCH_OWN = ("search", "backend", "address", "out", "logdir", "run_name")
+
+
+def search_grid(args: Args) -> list[dict[str, object]]:
+    """The trials of ``--search KEY=V1,V2 ...``: every combination, each a dict of the
+    options it changes, values parsed as the option's type. Exits 2 on a malformed entry."""
+    kinds = {f.name: getattr(Args, f.name) for f in fields(Args) if f.name not in SEARCH_OWN}
+    axes = []
+    for entry in args.search:
+        key, _, values = entry.partition("=")
+        key = key.strip().replace("-", "_")
+        if key not in kinds or not values:
+            print(f"train_tracker.py: --search {entry!r}: expected KEY=V1,V2 with KEY one of "
+                  f"{', '.join(sorted(kinds))}", file=sys.stderr)
+            sys.exit(2)
+        kind = type(kinds[key]) if kinds[key] is not None else int
+        try:
+            axes.append([(key, kind(v)) for v in values.split(",")])
+        except ValueError:
+            print(f"train_tracker.py: --search {entry!r}: values must be {kind.__name__}",
+                  file=sys.stderr)
+            sys.exit(2)
+    return [dict(combo) for combo in itertools.product(*axes)]
+
+
+def trial_argv(args: Args, overrides: dict[str, object], folder: Path) -> list[str]:
+    """This script's command line for one trial: ``args`` with ``overrides``, writing its
+    policy to ``folder/tracker.pt`` and its TensorBoard log to ``folder``."""
+    argv = []
+    for f in fields(Args):
+        value = overrides.get(f.name, getattr(args, f.name))
+        if f.name in SEARCH_OWN or value is None:
+            continue
+        flag = "--" + f.name.replace("_", "-")
+        argv += [flag, *map(str, value)] if isinstance(value, tuple) else [flag, str(value)]
+    return [*argv, "--out", str(folder / "tracker.pt"), "--logdir", str(folder.parent),
+            "--run-name", folder.name]
+
+
+def run_trial(argv: list[str]) -> float:
+    """Train one trial (this script, in a process of its own) and return its validation
+    score: the learned policy's RMSE (deg), mean over the scenarios."""
+    subprocess.run([sys.executable, str(Path(__file__).resolve()), *argv], check=True)
+    out = Path(argv[argv.index("--out") + 1])
+    metrics = json.loads(out.with_suffix(".json").read_text())["val_metrics"]
+    return float(np.mean([v for k, v in metrics.items() if k.endswith("/learned_rmse_deg")]))
+
+
+def _tune_trial(config: dict, argvs: list[list[str]]) -> None:
+    from ray import tune
+
+    tune.report({"val_rmse_deg": run_trial(argvs[config["trial"]])})
+
+
+def search(args: Args) -> None:
+    """Train every trial of the grid, here or as Ray Tune trials, and copy the one with
+    the lowest validation score (validation clips only) to ``--out``."""
+    grid = search_grid(args)
+    args.run_name = args.run_name or f"tracker_search__{int(time.time())}"
+    run_dir = (Path(args.logdir) / args.run_name).resolve()
+    out = Path(args.out or run_dir / "tracker.pt")
+    argvs = [trial_argv(args, overrides, run_dir / f"trial_{k}")
+             for k, overrides in enumerate(grid)]
+    scores: dict[int, float] = {}
+    if args.backend == "local":
+        for k, argv in enumerate(tqdm(argvs, desc="trials", unit="trial")):
+            try:
+                scores[k] = run_trial(argv)
+            except subprocess.CalledProcessError as error:
+                print(f"trial_{k} {grid[k]} failed: {error}", file=sys.stderr)
+    else:
+        scores = _search_on_ray(args, argvs, run_dir)
+    for k in range(len(grid)):
+        if k not in scores:
+            print(f"trial_{k} {grid[k]}: failed (its output above says why)", file=sys.stderr)
+    if not scores:
+        print("train_tracker.py: every trial failed; nothing written", file=sys.stderr)
+        sys.exit(1)
+    best = min(scores, key=lambda k: scores[k])
+    chosen = run_dir / f"trial_{best}" / "tracker.pt"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if out.resolve() != chosen.resolve():
+        shutil.copyfile(chosen, out)
+    metadata = json.loads(chosen.with_suffix(".json").read_text())
+    metadata["search"] = {
+        "grid": list(args.search), "backend": args.backend, "chosen": f"trial_{best}",
+        "rule": "lowest validation RMSE of the learned policy, mean over the scenarios",
+        "trials": [{"trial": f"trial_{k}", "options": grid[k], "val_rmse_deg": scores.get(k)}
+                   for k in range(len(grid))]}
+    metadata["command"] = shlex.join(["python", "training/train_tracker.py", *sys.argv[1:]])
+    out.with_suffix(".json").write_text(json.dumps(metadata, indent=2) + "\n")
+    print(f"wrote {out} (trial_{best}, {grid[best]}: validation RMSE {scores[best]:.2f} deg) "
+          f"and {out.with_suffix('.json')}")
+    for k in sorted(scores, key=lambda k: scores[k]):
+        print(f"  trial_{k:<3d} {scores[k]:7.2f} deg  {grid[k]}")
+
+
+def _search_on_ray(args: Args, argvs: list[list[str]], run_dir: Path) -> dict[int, float]:
+    """The trials as Ray Tune trials (one CPU each); their scores by trial index."""
+    from ray import tune
+
+    from imimic_gym.backends import BackendError, ray_session
+
+    try:
+        with ray_session(args.address or None):
+            tuner = tune.Tuner(
+                tune.with_resources(tune.with_parameters(_tune_trial, argvs=argvs),
+                                    {"cpu": 1}),
+                param_space={"trial": tune.grid_search(list(range(len(argvs))))},
+                tune_config=tune.TuneConfig(metric="val_rmse_deg", mode="min"),
+                run_config=tune.RunConfig(name="tune", storage_path=str(run_dir), verbose=1))
+            results = tuner.fit()
+    except BackendError as error:
+        print(f"train_tracker.py: {error}", file=sys.stderr)
+        sys.exit(2)
+    return {r.config["trial"]: float(r.metrics["val_rmse_deg"]) for r in results
+            if r.error is None and r.metrics and "val_rmse_deg" in r.metrics}
 
 
 def _sb3_logger(folder: str):

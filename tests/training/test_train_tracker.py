@@ -94,3 +94,38 @@ def test_an_out_that_cannot_be_written_is_said_before_training(tmp_path) -> None
                             capture_output=True, text=True, timeout=60)
     assert result.returncode == 2 and "Traceback" not in result.stderr
     assert "cannot write --out" in result.stderr
+
+
+def test_a_two_trial_tune_search_writes_the_best_policy_and_it_loads(tmp_path) -> None:
+    """Two Ray Tune trials (seeds 0 and 1) on a local Ray; the one with the lower
+    validation RMSE is written to --out, in the format LearnedController loads."""
+    out = tmp_path / "best.pt"
+    subprocess.run([sys.executable, str(SCRIPT), "--scenarios", "exp2-servo",
+                    "--train-seeds", "1", "--val-seeds", "900", "--frames", "20",
+                    "--total-timesteps", "60", "--learning-starts", "30", "--batch-size", "16",
+                    "--eval-every", "60", "--search", "seed=0,1", "--backend", "ray",
+                    "--run-name", "search", "--logdir", str(tmp_path / "runs"),
+                    "--out", str(out)], check=True, timeout=600)
+    meta = json.loads(out.with_suffix(".json").read_text())
+    trials = meta["search"]["trials"]
+    assert [t["options"] for t in trials] == [{"seed": 0}, {"seed": 1}]
+    assert all(np.isfinite(t["val_rmse_deg"]) for t in trials)
+    best = min(trials, key=lambda t: t["val_rmse_deg"])
+    assert meta["search"]["chosen"] == best["trial"] and meta["search"]["backend"] == "ray"
+    assert meta["args"]["seed"] == best["options"]["seed"]
+    for trial in trials:  # each trial logs to TensorBoard as a single run does
+        assert list((tmp_path / "runs" / "search" / trial["trial"]).glob("events.out.*"))
+    env = DONObservation(gym.make("ImitateVideo-v0", scenario="exp2-servo", n_frames=20,
+                                  control="velocity", clip_seeds=(900,)), keep_frame=False)
+    metrics = run_episode(env, LearnedController(env, out), seed=0).metrics()
+    assert np.isfinite(metrics["rmse_deg"])
+
+
+def test_a_malformed_search_is_refused_before_training(tmp_path) -> None:
+    for entry, message in (("colour=red,blue", "KEY one of"),
+                           ("learning_rate=fast", "values must be float")):
+        result = subprocess.run([sys.executable, str(SCRIPT), "--search", entry,
+                                 "--logdir", str(tmp_path)], capture_output=True, text=True,
+                                timeout=60)
+        assert result.returncode == 2 and message in result.stderr
+        assert not list(tmp_path.rglob("*.pt"))
