@@ -21,6 +21,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent
 RESULTS = ROOT / "results"
 SUITES = {
+    "scaleout": "Ray against one process on the same sweep and the same renders, and the "
+                "cost of 10,000 clips on N nodes",
     "real": "real people: the pose model, pose-seeded DON and every estimator on real "
             "photos and videos (../shared/realdata), and on rendered clips",
 }

@@ -73,17 +73,37 @@ def run_cell(cell: Cell) -> dict[str, Any]:
 
         return evaluate_clip(cell.scenario, cell.estimator, cell.seed, cell.modality,
                              cell.frames)
-    from imimic_gym.suite import RunConfig, run_config
+    from imimic_gym.rollout import run_episode
 
-    config = RunConfig(cell.scenario, cell.estimator, cell.controller, (cell.seed,),
-                       cell.frames)
-    [episode] = run_config(config)
+    env, controller = _episode_runner(cell)
+    episode = run_episode(env, controller, seed=cell.seed, options={"clip_seed": cell.seed})
     row = {"seed": cell.seed, **episode.metrics()}
     if cell.trajectory:
         row["trajectory"] = {
             name: np.asarray(getattr(episode, name)).tolist()
             for name in ("time", "target", "robot", "reward", "occlusion", "trust")}
     return row
+
+
+# The env and controller of the last configuration this process ran: a worker runs the
+# next seed of the same configuration on them, as `suite.run_config` runs its seeds (an
+# episode depends on its seed alone), without building the env again.
+_RUNNER: dict[tuple, tuple[Any, Any]] = {}
+
+
+def _episode_runner(cell: Cell) -> tuple[Any, Any]:
+    from imimic_gym.suite import CONTROLLERS, RunConfig
+
+    key = cell.config_key()
+    if key not in _RUNNER:
+        for env, _ in _RUNNER.values():
+            env.close()
+        _RUNNER.clear()
+        config = RunConfig(cell.scenario, cell.estimator, str(cell.controller), (cell.seed,),
+                           cell.frames)
+        env = config.make_env()
+        _RUNNER[key] = (env, CONTROLLERS[config.controller][1](env))
+    return _RUNNER[key]
 
 
 def _timed(cell: Cell) -> dict[str, Any]:
