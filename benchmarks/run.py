@@ -18,9 +18,13 @@ import json
 import sys
 from pathlib import Path
 
+from imimic_gym.backends import BACKENDS
+
 ROOT = Path(__file__).resolve().parent
 RESULTS = ROOT / "results"
 SUITES = {
+    "accuracy": "every video estimator on the test pool, per scenario and per joint",
+    "tracking": "the controllers on the test pool, and the learned tracker's margin",
     "scaleout": "Ray against one process on the same sweep and the same renders, and the "
                 "cost of 10,000 clips on N nodes",
     "real": "real people: the pose model, pose-seeded DON and every estimator on real "
@@ -50,6 +54,14 @@ def main() -> None:
                         help="run only these parts of the suite and replace them in the "
                              "existing results/<suite>.json (e.g. speed again on a quiet "
                              "machine); default: all")
+    parser.add_argument("--backend", default="local", choices=BACKENDS,
+                        help="suites that sweep clips (accuracy, tracking): run the cells "
+                             "here or as Ray tasks (default: %(default)s)")
+    parser.add_argument("--address", default=None,
+                        help="--backend ray: an existing cluster (default: a local Ray)")
+    parser.add_argument("--resume", action="store_true",
+                        help="suites that sweep clips: go on from results/<suite>.cells.jsonl "
+                             "after an interruption")
     args = parser.parse_args()
     suite = load(args.suite)
     data_path, report_path = RESULTS / f"{args.suite}.json", RESULTS / f"{args.suite}.md"
