@@ -28,6 +28,7 @@ demo: setup
 
 test: setup
 	$(BIN)/ruff check .
+	$(BIN)/mypy imimic_gym
 	$(BIN)/python -m pytest -q
 	$(MAKE) wheel-check
 

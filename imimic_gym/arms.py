@@ -103,7 +103,8 @@ class ArmSpec:
     @property
     def reach(self) -> float:
         """Longest distance from the base joint to a tip with the arm straight, metres."""
-        parents, total = self.link_parents, []
+        parents = self.link_parents
+        total: list[float] = []
         for i, length in enumerate(self.link_lengths):
             total.append(length + (total[parents[i]] if parents[i] >= 0 else 0.0))
         return float(max(total))

@@ -61,6 +61,7 @@ def bench_env(steps: int = 3000, repeats: int = 5, seed: int = 0) -> dict[str, A
     runs: dict[str, list[float]] = {"imitate": [], "reacher": []}
     for _ in range(repeats):
         for name, env in (("imitate", imitate), ("reacher", reacher)):
+            assert isinstance(env.action_space, gym.spaces.Box)  # both envs act with a Box
             actions = rng.uniform(-1, 1, size=(steps, *env.action_space.shape)).astype(np.float32)
             runs[name].append(_steps_per_second(env, actions))
     imitate.close()
@@ -171,8 +172,8 @@ def bench_don(frames: int = 90, repeats: int = 7,
         for _ in range(repeats):
             for name, run in runs.items():
                 times[name].append(per_frame_ms(run, clip.frames))
-        row = {"resolution": f"{height}x{width}",
-               **{f"{k}_ms": float(np.median(v)) for k, v in times.items()}}
+        row: dict[str, Any] = {"resolution": f"{height}x{width}",
+                               **{f"{k}_ms": float(np.median(v)) for k, v in times.items()}}
         row["ratio_mog2"] = row["don_ms"] / row["mog2_raw_ms"]
         row["ratio_mog2_paper"] = row["don_paper_ms"] / row["mog2_raw_ms"]
         rows.append(row)

@@ -73,6 +73,7 @@ def evaluate_clip(scenario: str, estimator: str, seed: int, modality: str = "rgb
         raise ValueError(f"estimator {estimator!r} is the truth itself: score it with a "
                          "controller")
     clip = load_clip(spec.replace(seed=seed), progress=False)
+    assert clip.truth is not None and clip.depth is not None  # a rendered clip has both
     images = clip.frames if modality == "rgb" else depth_to_frame(clip.depth)
     truth = clip.truth.angles
     warm = round(WARM_UP_S * clip.fps)

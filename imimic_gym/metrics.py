@@ -6,7 +6,7 @@ All angle inputs are radians, shaped (T,) or (T, n); outputs are in degrees or f
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 
@@ -19,6 +19,12 @@ OCCLUDED = 0.1  # a frame counts as occluded when over 10% of the moving links i
 RECOVERED_DEG = 5.0  # tracking has recovered once every joint is back within this (deg)
 
 
+@overload
+def wrap_angle(angle: float) -> float: ...
+@overload
+def wrap_angle(angle: np.ndarray) -> np.ndarray: ...
+@overload
+def wrap_angle(angle: np.ndarray | float) -> np.ndarray | float: ...
 def wrap_angle(angle: np.ndarray | float) -> np.ndarray | float:
     """Wrap radians into [-pi, pi), so 359 degrees of error counts as -1 degree.
 

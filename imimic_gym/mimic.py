@@ -31,7 +31,7 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import gymnasium as gym
 import numpy as np
@@ -40,7 +40,7 @@ from imimic_gym.clips.video import StreamEndedError, require_frames, write_video
 from imimic_gym.envs.imitate_video import imitate_env
 from imimic_gym.estimators.registry import get_estimator
 from imimic_gym.rollout import Trajectory
-from imimic_gym.wrappers import RegistryObservation
+from imimic_gym.wrappers import EstimatorObservation, RegistryObservation
 
 __all__ = ["PREVIEW_HEIGHT", "MimicLog", "mimic_frames", "run_mimic"]
 
@@ -79,7 +79,7 @@ def csv_header(n: int) -> list[str]:
             *joints("torque_nm"), "eta", "predicted", *joints("robot_rad"), "latency_ms"]
 
 
-def mimic_frames(env: gym.Env, controller: Any, log: MimicLog, rows: Any = None,
+def mimic_frames(env: EstimatorObservation, controller: Any, log: MimicLog, rows: Any = None,
                  servo: Any = None,
                  on_frame: Callable[[MimicLog], None] | None = None,
                  realtime: bool = False) -> Iterator[np.ndarray]:
@@ -91,8 +91,7 @@ def mimic_frames(env: gym.Env, controller: Any, log: MimicLog, rows: Any = None,
     is called (progress display). A stream that ends early ends the run, not an error.
     ``realtime`` waits until frame i's time (i / fps after the first) before reading it.
     """
-    inner = imitate_env(env)
-    n = int(env.action_space.shape[0])
+    inner, n = imitate_env(env), env.n
 
     def record(obs: dict[str, Any], info: dict[str, Any], started: float) -> np.ndarray:
         action = controller(obs)
@@ -102,6 +101,7 @@ def mimic_frames(env: gym.Env, controller: Any, log: MimicLog, rows: Any = None,
             servo.send(command)
         latency = 1000.0 * (time.perf_counter() - started)
         estimate = env.last_estimate
+        assert estimate is not None  # every observation sets it
         t = info["frame_index"] / log.fps
         log.time.append(t)
         log.angles.append(estimate.angles.copy())
@@ -128,7 +128,7 @@ def mimic_frames(env: gym.Env, controller: Any, log: MimicLog, rows: Any = None,
     if hasattr(controller, "reset"):
         controller.reset()
     action = record(obs, info, started)
-    yield env.render()
+    yield cast(np.ndarray, env.render())  # render_mode="rgb_array"
     done, first = False, time.perf_counter()
     while not done:
         if realtime:
@@ -140,7 +140,7 @@ def mimic_frames(env: gym.Env, controller: Any, log: MimicLog, rows: Any = None,
         except StreamEndedError:
             return
         action = record(obs, info, started)
-        yield env.render()
+        yield cast(np.ndarray, env.render())
         done = terminated or truncated
 
 
@@ -210,7 +210,7 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
     started = time.perf_counter()
     with (out / "mimic.csv").open("w", newline="", buffering=1) as table:
         rows = csv.writer(table)
-        rows.writerow(csv_header(int(env.action_space.shape[0])))
+        rows.writerow(csv_header(env.n))
         try:
             write_video(out / "mimic.mp4",
                         mimic_frames(env, controller, log, rows, servo, show, realtime),

@@ -128,7 +128,7 @@ class OffscreenRenderer:
 def project_points(
     model: mujoco.MjModel, data: mujoco.MjData, camera: int, points: np.ndarray,
     height: int, width: int,
-) -> np.ndarray:
+) -> tuple[np.ndarray, np.ndarray]:
     """Pixel coordinates (K, 2) float32 (x = column, y = row) of world points (K, 3), and
     their distances (K,) in metres along the camera axis (comparable with rendered depth)."""
     fovy = np.radians(model.cam_fovy[camera])

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import gymnasium as gym
 import numpy as np
@@ -83,7 +83,7 @@ def run_episode(
         if trust_at is not None:
             trust.append(float(obs["estimate"][trust_at]))
         if record:
-            frames.append(env.render())
+            frames.append(cast(np.ndarray, env.render()))  # render_mode="rgb_array"
 
     log(obs, info, 0.0)
     done = False

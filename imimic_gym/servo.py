@@ -27,8 +27,12 @@ import logging
 import math
 import time
 from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    import serial
 
 __all__ = ["ServoBridge", "format_command"]
 
@@ -78,7 +82,7 @@ class ServoBridge:
         self.port, self.baud, self.low, self.high = port, baud, float(low), float(high)
         self.zero_deg, self.interval, self.retry_s = zero_deg, 1.0 / max_rate_hz, retry_s
         self.clock = clock
-        self.serial = None
+        self.serial: serial.Serial | None = None
         self.sent = self.errors = 0
         self._last_sent: dict[int, float] = {}
         self._last_time = -math.inf
@@ -113,7 +117,7 @@ class ServoBridge:
         self._last_sent.clear()  # the controller may have restarted: send everything again
         log.info("servo port %s open at %d baud", self.port, self.baud)
 
-    def _lose(self, err: Exception) -> None:
+    def _lose(self, connection: serial.Serial, err: Exception) -> None:
         self.errors += 1
         log.warning("servo port %s lost (%s); retrying every %.1f s", self.port, err,
                     self.retry_s)
@@ -121,7 +125,7 @@ class ServoBridge:
 
         # The port is gone already: closing it is best effort.
         with contextlib.suppress(OSError, serial.SerialException, *_TTY_ERRORS):
-            self.serial.close()
+            connection.close()
         self.serial = None
         self._next_retry = self.clock() + self.retry_s
 
@@ -154,7 +158,7 @@ class ServoBridge:
                 self.serial.write(b"".join(lines))
                 self.serial.flush()
         except (OSError, serial.SerialException, *_TTY_ERRORS) as err:
-            self._lose(err)
+            self._lose(self.serial, err)
             return False
         self._last_sent.update(enumerate(self._pending))
         self.sent += len(lines)

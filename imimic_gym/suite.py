@@ -12,7 +12,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import gymnasium as gym
 import numpy as np
@@ -34,13 +34,13 @@ METRICS = ("rmse_deg", "max_error_deg", "lag_frames", "jerk_deg_s3", "recovery_s
            "mean_trust")
 
 
-def estimator_wrapper(name: str) -> Callable[[gym.Env], gym.Env]:
+def estimator_wrapper(name: str) -> Callable[[gym.Env], gym.Wrapper]:
     """A picklable wrapper factory (``gym.make_vec(wrappers=[...])``) that adds the
     registered estimator ``name``'s ``obs["estimate"]`` and drops the frame."""
     return functools.partial(_wrap, name=name)
 
 
-def _wrap(env: gym.Env, name: str) -> gym.Env:
+def _wrap(env: gym.Env, name: str) -> gym.Wrapper:
     from imimic_gym.wrappers import RegistryObservation
 
     return RegistryObservation(env, name, keep_frame=False)
@@ -138,14 +138,20 @@ def _run_vector(config: RunConfig, num_envs: int) -> list[Trajectory]:
                             **({"n_frames": config.frames} if config.frames else {}))
         for seed in config.seeds:
             load_clip(spec.replace(seed=seed))
-    vec = gym.make_vec("ImitateVideo-v0", num_envs=num_envs,
-                       vectorization_mode="sync" if sync else "async",
-                       wrappers=[estimator_wrapper(config.estimator)],
-                       **config.env_kwargs())
+    vec = cast("gym.vector.SyncVectorEnv | gym.vector.AsyncVectorEnv",
+               gym.make_vec("ImitateVideo-v0", num_envs=num_envs,
+                            vectorization_mode="sync" if sync else "async",
+                            wrappers=[estimator_wrapper(config.estimator)],
+                            **config.env_kwargs()))
     factory = CONTROLLERS[config.controller][1]
     template = None if sync else config.make_env()
-    controllers = [factory(vec.envs[i] if sync else template) for i in range(num_envs)]
-    fps = float((vec.envs[0] if sync else template).metadata["render_fps"])
+    if template is None:
+        assert isinstance(vec, gym.vector.SyncVectorEnv)  # the sync mode's
+        views: list[gym.Env] = list(vec.envs)
+    else:
+        views = [template] * num_envs
+    controllers = [factory(view) for view in views]
+    fps = float(views[0].metadata["render_fps"])
     out: list[Trajectory] = []
     try:
         for start in range(0, len(config.seeds), num_envs):
@@ -159,11 +165,11 @@ def _run_vector(config: RunConfig, num_envs: int) -> list[Trajectory]:
     return out
 
 
-def _vector_episode(vec: gym.vector.VectorEnv, controllers: list, seeds: list[int],
-                    fps: float) -> list[Trajectory]:
+def _vector_episode(vec: gym.vector.SyncVectorEnv | gym.vector.AsyncVectorEnv,
+                    controllers: list, seeds: list[int], fps: float) -> list[Trajectory]:
     """One clip per sub-env (all clips of a scenario have the same length)."""
     vec.set_attr("clip_seeds", [(s,) for s in seeds])
-    obs, info = vec.reset(seed=seeds)
+    obs, info = vec.reset(seed=cast("list[int | None]", seeds))  # the stub's list is invariant
     for controller in controllers:
         controller.reset()
     n = len(seeds)

@@ -6,6 +6,7 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import Any, cast
 
 import imimic_gym  # noqa: F401  (registers the env, sets headless GL)
 from imimic_gym.cli.cache import add_cache
@@ -138,7 +139,7 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
 def cmd_bench(args: argparse.Namespace) -> int:
     from imimic_gym.bench import bench_env, bench_render, machine
 
-    result: dict[str, object] = {"machine": machine()}
+    result: dict[str, Any] = {"machine": machine()}
     if args.what == "don":
         return _bench_don(args, result)
     print("ImitateVideo-v0 vs Reacher-v5, steps/s (median of alternating runs)...")
@@ -153,7 +154,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
-def _bench_don(args: argparse.Namespace, result: dict[str, object]) -> int:
+def _bench_don(args: argparse.Namespace, result: dict[str, Any]) -> int:
     from imimic_gym.bench import bench_don, don_window_and_lighting
 
     print("DON, baselines and raw OpenCV MOG2, CPU ms per frame on the same frames, "
@@ -208,7 +209,7 @@ def cmd_mimic(args: argparse.Namespace) -> int:
 def _mimic(args: argparse.Namespace) -> int:
     import math
 
-    from imimic_gym.clips.video import stream_video
+    from imimic_gym.clips.video import FrameStream, stream_video
     from imimic_gym.mimic import run_mimic
 
     source = args.video if args.video is not None else args.camera
@@ -242,13 +243,14 @@ def _mimic(args: argparse.Namespace) -> int:
         if servo is not None:
             servo.close()
         raise
+    frames = cast(FrameStream, clip.frames)  # stream_video's clip streams its frames
     print(f"imimic mimic: {clip.meta['path']} ({clip.width}x{clip.height}, {clip.fps:g} fps"
           f"{', live' if live else ''}"
-          f"{f', {len(clip)} frames' if clip.frames.length_known else ''}), "
+          f"{f', {len(clip)} frames' if frames.length_known else ''}), "
           f"estimator {args.estimator}, "
           f"control {args.control}" + (" (Ctrl-C stops and keeps the outputs)" if live else ""))
     if args.pivot and not (0 <= args.pivot[0] < clip.width and 0 <= args.pivot[1] < clip.height):
-        clip.frames.close()
+        frames.close()
         if servo is not None:
             servo.close()
         raise CommandError(f"imimic mimic: --pivot {args.pivot[0]:g} {args.pivot[1]:g} lies "

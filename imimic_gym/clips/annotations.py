@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -117,15 +118,21 @@ def _numbers(values: Any, where: str, path: Path) -> np.ndarray:
     return np.asarray(values, dtype=np.float64)
 
 
+def _indices(names: list[str], keypoints: Iterable[str]) -> tuple[int, int, int]:
+    """Where the (shoulder, elbow, wrist) ``keypoints`` are in ``names``."""
+    shoulder, elbow, wrist = (names.index(n) for n in keypoints)
+    return shoulder, elbow, wrist
+
+
 def _arm_indices(category: dict, path: Path) -> tuple[list[tuple[int, int, int]], int]:
     """The candidate (shoulder, elbow, wrist) index triples of a category, in preference
     order, and its keypoint count."""
     names = list(_need(category, "keypoints", f"category {category.get('id')!r}", path))
     if all(n in names for n in ARM_KEYPOINTS):
-        return [tuple(names.index(n) for n in ARM_KEYPOINTS)], len(names)
+        return [_indices(names, ARM_KEYPOINTS)], len(names)
     coco = [f"{side}_{joint}" for side in ("left", "right") for joint in ARM_KEYPOINTS]
     if all(n in names for n in coco):
-        return [tuple(names.index(f"{side}_{j}") for j in ARM_KEYPOINTS)
+        return [_indices(names, (f"{side}_{j}" for j in ARM_KEYPOINTS))
                 for side in COCO_SIDES], len(names)
     raise AnnotationError(
         f"{path}: category {category.get('name')!r} has keypoints {names}; expected "
@@ -293,9 +300,9 @@ def arm_keypoints_from_coco(path: str | Path, n_frames: int,
     # Candidate (shoulder, elbow, wrist) triples per category, named by side.
     sides_of: dict[Any, dict[str, tuple[int, int, int]]] = {}
     for category in data.get("categories") or []:
-        triples, _ = _arm_indices(category, path)
-        names = list(COCO_SIDES) if len(triples) == 2 else ["arm"]
-        sides_of[_need(category, "id", "a category", path)] = dict(zip(names, triples,
+        candidates, _ = _arm_indices(category, path)
+        names = list(COCO_SIDES) if len(candidates) == 2 else ["arm"]
+        sides_of[_need(category, "id", "a category", path)] = dict(zip(names, candidates,
                                                                        strict=True))
     if not sides_of:
         raise AnnotationError(f"{path}: no category lists its keypoint names ('keypoints')")

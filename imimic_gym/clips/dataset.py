@@ -22,6 +22,7 @@ import tempfile
 from collections import defaultdict
 from dataclasses import asdict
 from pathlib import Path
+from typing import Any, cast
 
 import cv2
 import numpy as np
@@ -30,7 +31,7 @@ from tqdm.auto import tqdm
 from imimic_gym.checkpoints import SHIPPED_ANNOTATIONS
 from imimic_gym.clips.annotations import ArmAnnotation, image_path
 from imimic_gym.clips.cache import cache_dir
-from imimic_gym.clips.scenarios import ClipSpec
+from imimic_gym.clips.scenarios import Background, ClipSpec
 from imimic_gym.clips.synthetic import render_clip
 
 __all__ = ["DEFAULT_ANNOTATIONS", "IMAGES_PER_CLIP", "generate_arms", "load_images",
@@ -47,7 +48,7 @@ def _sample_spec(links: int, seed: int, rng: np.random.Generator) -> ClipSpec:
     the env's scenarios use)."""
     return ClipSpec(
         n_links=links, motion="spline", seed=seed, n_frames=CLIP_FRAMES,
-        background=str(rng.choice(["plain", "textured", "cluttered"])),
+        background=cast(Background, str(rng.choice(["plain", "textured", "cluttered"]))),
         lighting=round(float(rng.uniform(0.5, 1.0)), 3),
         camera_distance=round(float(rng.uniform(1.9, 2.6)), 3),
         sway=round(float(rng.uniform(0.0, 1.0)), 3),
@@ -145,17 +146,18 @@ def _read_rgb(path: Path) -> np.ndarray | None:
     return None if bgr is None else cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
 
 
-def _regenerate(arms: list[ArmAnnotation], progress: bool) -> None:
-    """Render the clips of the rendered images missing from the cache, each clip once."""
+def _regenerate(records: list[dict[str, Any]], progress: bool) -> None:
+    """Render the clips of the rendered images (their ``render`` records) missing from
+    the cache, each clip once."""
     missing: dict[str, list[dict]] = defaultdict(list)
     specs: dict[str, ClipSpec] = {}
-    for arm in arms:
-        path = rendered_image_path(arm.render)
+    for record in records:
+        path = rendered_image_path(record)
         cached = _read_rgb(path) if path.is_file() else None
-        if cached is None or _digest(cached) != arm.render.get("sha256", _digest(cached)):
-            spec = ClipSpec(**arm.render["spec"])
+        if cached is None or _digest(cached) != record.get("sha256", _digest(cached)):
+            spec = ClipSpec(**record["spec"])
             specs[spec.key()] = spec
-            missing[spec.key()].append(arm.render)
+            missing[spec.key()].append(record)
     for key in tqdm(missing, desc="regenerating dataset images",
                     disable=not (progress and missing), unit="clip"):
         renders = missing[key]
@@ -182,7 +184,7 @@ def load_images(arms: list[ArmAnnotation], images_dir: str | Path | None = None,
         FileNotFoundError: an image file is missing (the message names the path).
         OSError: an image file cannot be decoded.
     """
-    rendered = [a for a in arms if a.render is not None]
+    rendered = [a.render for a in arms if a.render is not None]
     if rendered and images_dir is None:
         _regenerate(rendered, progress)
     images = []

@@ -38,6 +38,7 @@ def keypoint_names(spec: ClipSpec) -> tuple[str, ...]:
 def _chain_points(spec: ClipSpec, angles: np.ndarray) -> np.ndarray:
     """The base joint and every segment's end in the arm plane, (K, 2) metres, for
     ``angles``: the geometry the workspace is measured from."""
+    parents: tuple[int, ...]
     if spec.demonstrator == "human":  # the whole arm; the joints sit on some segments
         lengths, parents = list(HUMAN_SEGMENTS), (-1, 0, 1)
         first = 1 if spec.n_links == 1 else 0
@@ -45,7 +46,8 @@ def _chain_points(spec: ClipSpec, angles: np.ndarray) -> np.ndarray:
         joints[first : first + spec.n_links] = angles
     else:
         lengths, parents, joints = list(spec.link_lengths), spec.link_parents, angles
-    direction, ends = [], []
+    direction: list[float] = []
+    ends: list[np.ndarray] = []
     for i, parent in enumerate(parents):
         direction.append((direction[parent] if parent >= 0 else spec.reference_direction)
                          + joints[i])

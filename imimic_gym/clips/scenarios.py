@@ -8,7 +8,7 @@ import math
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Literal
 
-from imimic_gym.arms import MAX_LINKS, ArmSpec, Control
+from imimic_gym.arms import MAX_LINKS, ArmSpec, Control, Plane
 from imimic_gym.clips.motion import MOTION_PROFILES, MotionProfile
 
 __all__ = ["SCENARIOS", "ClipSpec", "get_scenario", "scenario_names"]
@@ -142,6 +142,7 @@ class ClipSpec:
 
     def robot_arm(self, control: Control = "position") -> ArmSpec:
         """A robot arm that matches this demonstrator's links, ranges and viewpoint."""
+        plane: Plane
         if self.demonstrator == "servo":
             masses, damping, reference = (0.02,) * self.n_links, 2e-4, 0.0
             plane, radius = "horizontal", 0.006

@@ -78,7 +78,7 @@ def _is_live(source: str | int | Path) -> bool:
 
 def _describe(source: str | int | Path) -> str:
     if isinstance(source, int) or str(source).isdigit():
-        return f"camera {int(source)}"
+        return f"camera {int(str(source))}"
     return str(source)
 
 
@@ -131,7 +131,7 @@ class VideoReader:
             backend = cv2.CAP_IMAGES if pattern else cv2.CAP_FFMPEG
             capture = cv2.VideoCapture(str(path), backend)
         else:
-            index = int(self.source) if str(self.source).isdigit() else str(self.source)
+            index = int(str(self.source)) if str(self.source).isdigit() else str(self.source)
             capture = cv2.VideoCapture(index)
         if not capture.isOpened():
             capture.release()
@@ -182,7 +182,7 @@ class VideoReader:
                 time.sleep(0.05)  # a camera that hiccups gets a moment before it is given up
         return None
 
-    def __iter__(self) -> Iterator[np.ndarray]:
+    def __iter__(self) -> Generator[np.ndarray, None, None]:
         self.open()
         try:
             while (bgr := self._next_bgr()) is not None:
@@ -508,7 +508,7 @@ class _Writer:
                           "mp4v codec, which browsers do not play (pip install imageio-ffmpeg)",
                           UserWarning, stacklevel=3)
             self.codec = "mp4v"
-            self.cv = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps,
+            self.cv = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"mp4v"), fps,
                                       (width, height))
             if not self.cv.isOpened():
                 raise VideoWriteError(f"OpenCV cannot open {path} for writing (mp4v codec)")

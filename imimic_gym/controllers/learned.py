@@ -97,7 +97,7 @@ class TrackerFeatures:
     def __call__(self, obs: dict[str, Any]) -> np.ndarray:
         estimate = np.asarray(obs["estimate"], dtype=np.float64)
         angles = estimate[self.fields["angles"]]
-        if self.first is None:
+        if self.first is None or self.previous is None:  # set together
             self.first = self.previous = angles
             self.past = [angles] * self.history
         rate = np.concatenate([estimate[self.fields["omega"]] / OMEGA_SCALE,
@@ -226,14 +226,19 @@ def load_policy(path: str | Path, metadata: dict[str, Any]) -> Any:
     size, n = metadata["observation_size"], metadata["action_size"]
     obs_space = spaces.Box(-5.0, 5.0, shape=(size,), dtype=np.float32)
     act_space = spaces.Box(-1.0, 1.0, shape=(n,), dtype=np.float32)
+    policy_class: type[SACPolicy | ActorCriticPolicy]
     if algo == "sac":
-        from stable_baselines3.sac.policies import SACPolicy as Policy
+        from stable_baselines3.sac.policies import SACPolicy
+
+        policy_class = SACPolicy
     elif algo == "ppo":
-        from stable_baselines3.common.policies import ActorCriticPolicy as Policy
+        from stable_baselines3.common.policies import ActorCriticPolicy
+
+        policy_class = ActorCriticPolicy
     else:
         raise ValueError(f"{path}: metadata 'algorithm' must be 'sac' or 'ppo', got {algo!r}")
-    policy = Policy(obs_space, act_space, ConstantSchedule(0.0),
-                    net_arch=list(metadata["net_arch"]))
+    policy = policy_class(obs_space, act_space, ConstantSchedule(0.0),
+                          net_arch=list(metadata["net_arch"]))
     try:
         policy.load_state_dict(torch.load(path, map_location="cpu", weights_only=True))
     except (RuntimeError, pickle.UnpicklingError, EOFError, zipfile.BadZipFile,

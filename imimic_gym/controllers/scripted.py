@@ -9,6 +9,7 @@ targets upstream).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any, Protocol
 
 import gymnasium as gym
@@ -49,6 +50,8 @@ class TruthTarget:
         """Stateless: the env's ``frame_index`` says where the clip is."""
 
     def __call__(self, obs: dict[str, Any]) -> np.ndarray:
+        if self.env.frame_index is None:
+            raise RuntimeError("call the env's reset() before asking for a target")
         return self.env.target_angles(self.env.frame_index + self.lookahead)
 
 
@@ -229,7 +232,7 @@ class TorqueController(PDController):
         return self.env.command_to_action(self._data.qfrc_inverse.copy())
 
 
-SCRIPTED_CONTROLLERS = {
+SCRIPTED_CONTROLLERS: dict[str, Callable[..., PDController]] = {
     "position": PositionController,
     "velocity": VelocityController,
     "torque": TorqueController,

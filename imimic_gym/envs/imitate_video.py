@@ -6,7 +6,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any
 
 import cv2
 import gymnasium as gym
@@ -15,7 +15,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import EzPickle
 
-from imimic_gym.arms import CONTROL_MODES, MAX_LINKS, ArmSpec, build_arm_model
+from imimic_gym.arms import CONTROL_MODES, MAX_LINKS, ArmSpec, Control, build_arm_model
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import ClipSpec, get_scenario
 from imimic_gym.clips.types import Clip
@@ -44,7 +44,7 @@ class SimulationUnstableError(RuntimeError):
     to its start pose: the arm's motors are too strong for its links at this step size."""
 
 
-def clip_arm(clip: Clip, control: str) -> ArmSpec:
+def clip_arm(clip: Clip, control: Control) -> ArmSpec:
     """A robot matching ``clip``: its demonstrator's arm, with the reference direction
     and joint ranges of ``clip.meta`` where the clip states them (recorded video)."""
     arm = ClipSpec(demonstrator=clip.meta.get("demonstrator", "human"),
@@ -148,13 +148,14 @@ class ImitateVideoEnv(gym.Env, EzPickle):
     - v0: first version.
     """
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 30}
+    # Per instance, as gymnasium's Env declares it: each env sets its clip's render_fps.
+    metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 30}  # noqa: RUF012
 
     def __init__(
         self,
         scenario: str | Clip = "default",
         n_links: int | None = None,
-        control: str = "position",
+        control: Control = "position",
         modality: str = "rgb",
         width: int | None = None,
         height: int | None = None,
@@ -188,12 +189,12 @@ class ImitateVideoEnv(gym.Env, EzPickle):
                 span = f"from {low} to {high}" if high else f"of at least {low}"
                 raise ValueError(f"{name} must be an integer {span}, got {value!r}")
         n_links = None if n_links is None else int(n_links)
-        for name, value in (("tracking_weight", tracking_weight),
-                            ("ctrl_cost_weight", ctrl_cost_weight),
-                            ("reset_noise_scale", reset_noise_scale)):
-            if not (isinstance(value, (int, float, np.number)) and math.isfinite(value)
-                    and value >= 0):
-                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+        for name, weight in (("tracking_weight", tracking_weight),
+                             ("ctrl_cost_weight", ctrl_cost_weight),
+                             ("reset_noise_scale", reset_noise_scale)):
+            if not (isinstance(weight, (int, float, np.number)) and math.isfinite(weight)
+                    and weight >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {weight!r}")
         self.control, self.modality, self.render_mode = control, modality, render_mode
         self.render_height = render_height
         self.tracking_weight, self.ctrl_cost_weight = tracking_weight, ctrl_cost_weight

@@ -208,7 +208,8 @@ class LinkAppearance:
                            and trust >= self.first_trust):
                 self._learn_first(image, pivot, radius, prior, vouched)
         else:
-            angle = self._read(image, pivot, radius, prior, vouched, directions, lost)
+            angle = self._read(image, self.colour, pivot, radius, prior, vouched,
+                               directions, lost)
         if vouched and self.colour is not None:
             agrees = angle is not None and abs(wrap_angle(angle - prior)) < self.disagree
             self.disagreed = 0 if agrees else self.disagreed + 1
@@ -216,11 +217,11 @@ class LinkAppearance:
                 self.colour, self.last, self.disagreed = None, None, 0
         return angle
 
-    def _read(self, image: np.ndarray, pivot: np.ndarray, radius: float, prior: float,
-              vouched: bool, directions: tuple[float, float] | None, lost: bool
-              ) -> float | None:
-        """`update` once the colour is known, without the relearning: ``vouched`` is
-        DON's reading ``prior``."""
+    def _read(self, image: np.ndarray, colour: tuple[float, ...], pivot: np.ndarray,
+              radius: float, prior: float, vouched: bool,
+              directions: tuple[float, float] | None, lost: bool) -> float | None:
+        """`update` once the colour is known (``colour``), without the relearning:
+        ``vouched`` is DON's reading ``prior``."""
         px, py = float(pivot[0]), float(pivot[1])
         if vouched and self._jumped(prior):
             vouched = False  # search along this layer's track; learn nothing from the frame
@@ -235,20 +236,20 @@ class LinkAppearance:
         # The background's match is the rays' lower quartile (a link near the pivot
         # crosses several neighbouring rays).
         best, side = best_ray(cv2.remap(image, map1[rows], map2[rows], cv2.INTER_LINEAR),
-                              _rounded(self.colour), _MATCH, len(OFFSETS), 255 * MIN_MATCH,
+                              _rounded(colour), _MATCH, len(OFFSETS), 255 * MIN_MATCH,
                               255 * MIN_CONTRAST)
         if best < 0:
             self.last = None
             return None
         angle, offset = (first + best) * STEP, float(OFFSETS[side])
-        angle, patch, weight = self._fit_line(image, px, py, radius, angle, offset)
+        angle, patch, weight = self._fit_line(image, colour, px, py, radius, angle, offset)
         if directions is not None and abs(wrap_angle(angle - directions[0])) > directions[1]:
             self.last = None  # the fit left where the link can point: not the link
             return None
         self.turn = 0.0 if self.last is None else float(wrap_angle(angle - self.last))
         self.last = angle
         if vouched and abs(wrap_angle(angle - prior)) < AGREE:
-            self._learn(patch, weight)
+            self._learn(colour, patch, weight)
         return angle
 
     def _jumped(self, prior: float) -> bool:
@@ -317,7 +318,8 @@ class LinkAppearance:
         square = image[reach_square(np.array([px, py]), radius)]
         if square.size == 0:
             return False
-        matching = cv2.countNonZero(cv2.compare(_match(square, colour), 94, cv2.CMP_GT))
+        matching = cv2.countNonZero(cv2.compare(  # type: ignore[call-overload]
+            _match(square, colour), 94, cv2.CMP_GT))
         return matching > self.max_share * square.shape[0] * square.shape[1]
 
     def _search(self, prior: int, vouched: bool, directions: tuple[float, float] | None,
@@ -348,8 +350,8 @@ class LinkAppearance:
         """cv2.remap maps (fixed point, (2 TURN len(OFFSETS), len(FRACTIONS)) rows and
         columns) of every ray twice round: row 3k + j is direction k STEP shifted sideways
         by OFFSETS[j]. Kept while the pivot stays within 0.3 px and the radius within 3%."""
-        kept = self._rays_for
-        if (kept is None or abs(kept[0] - px) > 0.3 or abs(kept[1] - py) > 0.3
+        kept, rays = self._rays_for, self._rays
+        if (kept is None or rays is None or abs(kept[0] - px) > 0.3 or abs(kept[1] - py) > 0.3
                 or abs(kept[2] - radius) > 0.03 * kept[2]):
             grid = np.arange(2 * TURN) * STEP
             cos, sin = np.cos(grid)[:, None, None], np.sin(grid)[:, None, None]
@@ -357,18 +359,19 @@ class LinkAppearance:
             # Sideways is the ray's direction turned clockwise on screen: (-sin, -cos).
             xs = (px + cos * along - sin * side).reshape(-1, len(FRACTIONS))
             ys = (py - sin * along - cos * side).reshape(-1, len(FRACTIONS))
-            self._rays = cv2.convertMaps(xs.astype(np.float32), ys.astype(np.float32),
-                                         cv2.CV_16SC2)
+            rays = self._rays = cv2.convertMaps(xs.astype(np.float32), ys.astype(np.float32),
+                                                cv2.CV_16SC2)
             self._rays_for = (px, py, radius)
-        return self._rays
+        return rays
 
-    def _fit_line(self, image: np.ndarray, px: float, py: float, radius: float,
-                  angle: float, offset: float) -> tuple[float, np.ndarray, np.ndarray]:
+    def _fit_line(self, image: np.ndarray, colour: tuple[float, ...], px: float, py: float,
+                  radius: float, angle: float, offset: float
+                  ) -> tuple[float, np.ndarray, np.ndarray]:
         """The link's direction from the corridor about the ray at ``angle`` shifted
         sideways by ``offset``: the weighted least-squares line of sideways offset against
-        distance (the match's image moments in the corridor's frame); ``angle`` if the
-        corridor holds too little of the link. Also returns the corridor's pixels
-        ((rows, cols, 3) uint8) and their match (0-255)."""
+        distance (the image moments of the match with ``colour`` in the corridor's
+        frame); ``angle`` if the corridor holds too little of the link. Also returns the
+        corridor's pixels ((rows, cols, 3) uint8) and their match (0-255)."""
         first, cols = 0.2 * radius, max(2, int(0.8 * radius / CORRIDOR_STEP))
         rows = 2 * round(CORRIDOR_PX / CORRIDOR_STEP) + 1
         side0 = offset - CORRIDOR_PX
@@ -378,7 +381,7 @@ class LinkAppearance:
                              [-sin * s, -cos * s, py - sin * first - cos * side0]])
         patch = cv2.warpAffine(image, to_image, (cols, rows),
                                flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP)
-        weight = _match(patch, self.colour)
+        weight = _match(patch, colour)
         moments = cv2.moments(weight)
         if moments["m00"] > 3 * 255 and moments["mu20"] > 1e-6:
             # A line turned by a small delta from the ray lies sideways at delta * distance:
@@ -386,10 +389,12 @@ class LinkAppearance:
             angle += math.atan(moments["mu11"] / moments["mu20"])
         return angle, patch, weight
 
-    def _learn(self, patch: np.ndarray, weight: np.ndarray) -> None:
-        """Move the colour toward the mean of the corridor's pixels that match it within
-        SIGMA (``patch`` (rows, cols, 3) uint8, ``weight`` their match, 0-255)."""
+    def _learn(self, colour: tuple[float, ...], patch: np.ndarray, weight: np.ndarray
+               ) -> None:
+        """Move the colour (``colour``, as it stands) toward the mean of the corridor's
+        pixels that match it within SIGMA (``patch`` (rows, cols, 3) uint8, ``weight``
+        their match, 0-255)."""
         count, *mean = close_colour_mean(patch, weight, 94)  # 255 / e
         if count >= 3:
             self.colour = (*((1 - LEARNING_RATE) * c + LEARNING_RATE * m
-                             for c, m in zip(self.colour[:3], mean, strict=True)), 0.0)
+                             for c, m in zip(colour[:3], mean, strict=True)), 0.0)

@@ -17,6 +17,7 @@ once they have read the link, and 0 before, while the angle is only a placeholde
 from __future__ import annotations
 
 from collections.abc import Iterable
+from typing import cast
 
 import cv2
 import mujoco
@@ -143,9 +144,10 @@ class CamShiftEstimator(_MaskEstimator):
         self.histogram: np.ndarray | None = None
         self.window: tuple[int, int, int, int] | None = None
 
-    def _start(self, image: np.ndarray, hsv: np.ndarray) -> None:
-        """Take the colour model from the largest region that changed since last frame."""
-        moving = cv2.absdiff(image, self.previous).max(axis=2) > 20
+    def _start(self, image: np.ndarray, previous: np.ndarray, hsv: np.ndarray) -> None:
+        """Take the colour model from the largest region that changed since the last frame
+        (``previous``)."""
+        moving = cv2.absdiff(image, previous).max(axis=2) > 20
         count, _, stats, _ = cv2.connectedComponentsWithStats(moving.view(np.uint8))
         if count < 2 or stats[1:, cv2.CC_STAT_AREA].max() < self.min_area:
             return
@@ -160,13 +162,14 @@ class CamShiftEstimator(_MaskEstimator):
     def _mask(self, image: np.ndarray) -> np.ndarray:
         hsv = cv2.cvtColor(image, cv2.COLOR_RGB2HSV)
         mask = np.zeros(image.shape[:2], dtype=bool)
-        if self.histogram is None:
+        if self.histogram is None or self.window is None:  # set together by _start
             if self.previous is not None:
-                self._start(image, hsv)
+                self._start(image, self.previous, hsv)
             self.previous = image
             return mask
         back = cv2.calcBackProject([hsv], [0], self.histogram, [0, 180], 1)
-        box, self.window = cv2.CamShift(back, self.window, self.criteria)
+        box, window = cv2.CamShift(back, self.window, self.criteria)
+        self.window = cast(tuple[int, int, int, int], window)  # a tuple; the stub says Sequence
         if self.window[2] < 2 or self.window[3] < 2:  # lost: start again on new motion
             self.histogram, self.window = None, None
             return mask

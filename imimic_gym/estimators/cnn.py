@@ -212,8 +212,9 @@ def load_model(path: str | Path) -> CNNRefiner:
         try:
             meta = json.loads(meta_path.read_text())
             arch = meta["architecture"]
-            config = NetConfig(**{k: tuple(v) if isinstance(v, list) else v
-                                  for k, v in arch.items()})
+            fields: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v
+                                      for k, v in arch.items()}
+            config = NetConfig(**fields)
         except (json.JSONDecodeError, KeyError, TypeError) as err:
             raise CheckpointError(f"checkpoint metadata {meta_path} has no valid "
                                   f"'architecture' ({err})") from err

@@ -258,6 +258,7 @@ class SlidingExtrema:
         if k == 0:
             whole = (self.suffix_min[0], self.suffix_max[0])
             return whole, whole
+        assert self.run_min is not None and self.run_max is not None  # set by every push
         run = (self.run_min, self.run_max)
         if not self.suffix_min:
             return run, run
@@ -271,10 +272,10 @@ class SlidingExtrema:
         return cv2.min(low_a[box], low_b[box]), cv2.max(high_a[box], high_b[box])
 
     def push(self, image: np.ndarray) -> None:
-        if self.block:
-            self.run_min, self.run_max = running_extrema(self.run_min, self.run_max, image)
-        else:
+        if self.run_min is None or self.run_max is None:  # a new block
             self.run_min, self.run_max = image, image
+        else:
+            self.run_min, self.run_max = running_extrema(self.run_min, self.run_max, image)
         self.block.append(image)
         if len(self.block) == self.n:
             lows, highs = [self.block[-1]], [self.block[-1]]
@@ -323,7 +324,7 @@ class MotionMask:
     def __call__(self, frame: np.ndarray) -> np.ndarray | None:
         """l_1 for ``frame`` (H, W, 3) uint8 RGB; None for the first frame."""
         image = self.frames(frame)  # layer 1: input window, downscaled and smoothed
-        mask = None if self.previous is None else self._moving_pixels(image)
+        mask = None if self.previous is None else self._moving_pixels(image, self.previous)
         self.previous = image
         self.extrema.push(image)
         self.history.append(image)
@@ -347,13 +348,13 @@ class MotionMask:
             self.threshold)
         return mask
 
-    def _moving_pixels(self, image: np.ndarray) -> np.ndarray:
+    def _moving_pixels(self, image: np.ndarray, previous: np.ndarray) -> np.ndarray:
         tau = self.threshold
         # DON layer 2: frame difference, paper Eqs. (f1), (f2), binarised.
         # A pixel differs when any colour channel differs by more than tau; f_t differs
         # from some f_{t-p} exactly when it rises above the window's minimum or falls below
         # its maximum, so one saturating difference each, merged, covers every delta2_p.
-        delta1 = _any_channel_above(cv2.absdiff(image, self.previous), tau)
+        delta1 = _any_channel_above(cv2.absdiff(image, previous), tau)
         # The union matters only where delta1 is set: within its bounding box (2-40% of
         # the frame in the rendered scenarios; nothing at all on a still frame).
         left, top, width, height = cv2.boundingRect(delta1)
@@ -363,9 +364,9 @@ class MotionMask:
         # DON layer 3: object identification, paper Eq. (OL), one compiled pass, which
         # also counts l_1's pixels and bounds them.
         (low_a, high_a), (low_b, high_b) = self.extrema.parts()
-        self.area, *box = keep_window_changes(delta1, image, low_a, low_b, high_a, high_b,
-                                              tau, top, left, height, width)
-        self.box = tuple(box)
+        counted = keep_window_changes(delta1, image, low_a, low_b, high_a, high_b,
+                                      tau, top, left, height, width)
+        self.area, self.box = counted[0], counted[1:]
         return delta1
 
 
@@ -489,6 +490,12 @@ class DON:
         """Input pixels per working pixel."""
         return self.motion.scale
 
+    @property
+    def _tracker(self) -> LinkTracker:
+        """The link's tracker, made on the first frame."""
+        assert self.link is not None, "DON has seen no frame yet"
+        return self.link
+
     # Layer 4b: trust factor -------------------------------------------------------------
     def trust_factor(self) -> float:
         """eta = 1 - max_p |M_1 - M_p| / max_p M_p, paper Eq. (TF); 1 with fewer than two
@@ -561,12 +568,15 @@ class DON:
         only, once it has moved on by its width). None if those show no link either."""
         if self.hidden or self.angle is None or len(self.motion.history) <= self.window:
             return None
+        link = self._tracker
         half = self.window // 2
-        box = self.link.reach_box()
+        box = link.reach_box()
         mask = cv2.bitwise_and(self.motion.difference_to(half, box),
                                self.motion.difference_to(self.window, box))
         lines = component_lines(mask, self.min_area)
-        return self.link.measure(lines, self.link.pivot(), self.angle)
+        pivot = link.pivot()
+        assert pivot is not None  # read slowly only about a pivot
+        return link.measure(lines, pivot, self.angle)
 
     def _link_missing(self, moved: bool) -> Reading | None:
         """No reading of the link in this frame: hold the last estimate. The link is
@@ -616,11 +626,12 @@ class DON:
         axis: the paper's "size of the moving object". (Until this was measured, guesses
         were reported with eta 1, however much of the link an occluder hid.) The first
         reading about the agreed pivot starts the path afresh."""
-        provisional = self.link.pivots.provisional()
+        link = self._tracker
+        provisional = link.pivots.provisional()
         reading = (None if provisional is None
-                   else self.link.measure(lines, provisional, self.guess))
+                   else link.measure(lines, provisional, self.guess))
         if reading is None:
-            reading = self.link.before_pivot(lines, mask)
+            reading = link.before_pivot(lines, mask)
         self.sizes.append(None if reading is None else reading[1])
         if reading is None:
             return None
@@ -649,13 +660,14 @@ class DON:
         The trust factor stays the motion layers' (paper Eq. TF)."""
         if self.appearance is None or self.angle is None:
             return reading
-        pivot = self.link.pivot()
-        if pivot is None or self.link.radius is None:
+        link = self._tracker
+        pivot = link.pivot()
+        if pivot is None or link.radius is None:
             return reading
         angle = self.appearance.update(
-            self.motion.history[-1], pivot, self.link.radius, prior=reading.angle,
+            self.motion.history[-1], pivot, link.radius, prior=reading.angle,
             read=self.read, trust=reading.trust,
-            directions=self.link.directions, lost=self.search_when_lost and self.hidden)
+            directions=link.directions, lost=self.search_when_lost and self.hidden)
         if angle is None:
             return reading
         self.path.correct((angle,))
@@ -673,6 +685,7 @@ class DON:
                                     self.min_area, reach_back=REACH_BACK_PX,
                                     reseek=self.reseek)
             return None
+        link = self._tracker
         self.last_mask = mask
         area = self.motion.area
         if self.motion.scene_changed:
@@ -681,24 +694,24 @@ class DON:
         measured = None
         if area < self.min_area:
             # Nothing moved: nothing to distrust, unless the link vanished (below).
-            slow = None if self.link.pivot() is None else self._slow_reading()
-            if slow is None:
+            found = None if link.pivot() is None else self._slow_reading()
+            if found is None:
                 return self._link_missing(moved=False)
         else:
-            lines = self.link.lines(mask, self.motion.box)
-            pivot = self.link.pivot()
+            lines = link.lines(mask, self.motion.box)
+            pivot = link.pivot()
             if pivot is None:
                 return self._before_pivot(lines, mask)
             # DON layer 3 + object regression: where the link is, from l_1's regions.
-            measured = self.link.measure(lines, pivot, self.angle, mask)
-            slow = None if measured is not None else self._slow_reading()
-            if measured is None and slow is None:
+            measured = link.measure(lines, pivot, self.angle, mask)
+            found = measured if measured is not None else self._slow_reading()
+            if found is None:
                 # Motion, but none along the link: the link is hidden (below), or at rest
                 # while a distractor moves.
                 return self._link_missing(moved=True)
         self.missing = 0
         self.read = True
-        location, visible_length = measured if measured is not None else slow
+        location, visible_length = found
         self.hidden = False
         self.sizes.append(visible_length)
         trust = self.trust_factor()

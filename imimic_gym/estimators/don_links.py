@@ -484,7 +484,8 @@ class LinkedDON:
         above ``to_beat``."""
         best, best_score = None, -np.inf if to_beat is None else to_beat
         middle = self.joint_ranges.mean(axis=1)
-        for root in np.linspace(*self.joint_ranges[0], RESTARTS):
+        low, high = self.joint_ranges[0]
+        for root in np.linspace(low, high, RESTARTS):
             start = middle.copy()
             start[0] = root
             found, score = self._search(points, pivot, lengths, start, 360.0, SWEEPS, None,
@@ -498,7 +499,7 @@ class LinkedDON:
         """Take the next (H, W, 3) uint8 RGB frame; return the estimate for it."""
         fitted = self._fit(frame)
         if self.appearances is not None and self.tracking:
-            self._read_appearance(fitted)
+            self._read_appearance(self.appearances, fitted)
         return self.estimate
 
     def _fit(self, frame: np.ndarray) -> bool:
@@ -553,11 +554,11 @@ class LinkedDON:
         self.estimate = self._estimate(omega, alpha, trust=self._trust())
         return True
 
-    def _read_appearance(self, fitted: bool) -> None:
+    def _read_appearance(self, appearances: list[LinkAppearance], fitted: bool) -> None:
         """The appearance layer (module docstring): each long enough link's direction
         from its colour in this frame, about the estimate's pose; the estimate's angles
-        follow. ``fitted``: the fit gave this frame's pose (it vouches for it); else the
-        layers search about their own tracks."""
+        follow. ``appearances``: the layers, one per link. ``fitted``: the fit gave this
+        frame's pose (it vouches for it); else the layers search about their own tracks."""
         pivot, lengths = self.pivot(), self.lengths()
         if pivot is None or lengths is None:
             return
@@ -570,7 +571,7 @@ class LinkedDON:
             if lengths[i] < APPEARANCE_MIN_LENGTH:
                 continue
             base = self.reference_direction if parent < 0 else directions[parent]
-            angle = self.appearances[i].update(
+            angle = appearances[i].update(
                 self.mask.history[-1], starts[i], float(lengths[i]),
                 prior=float(fitted_directions[i]), read=fitted, trust=float(fitted),
                 directions=pointing_range(base, self.joint_ranges[i]))

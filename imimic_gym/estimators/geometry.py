@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Sequence
 
 import cv2
 import numpy as np
@@ -296,7 +297,7 @@ def _edge_along(line: list[float], edges: list[tuple[float, ...]]
     return None
 
 
-def _erase_edges(mask: np.ndarray, edges: list[tuple[float, ...]]) -> np.ndarray:
+def _erase_edges(mask: np.ndarray, edges: Sequence[tuple[float, ...]]) -> np.ndarray:
     """A copy of ``mask`` with a line ERASE_PX wide cleared along each of ``edges`` (centre
     x, y, direction x, y, length), over its 1.7 lengths either side of the centre."""
     cleared = mask.copy()
@@ -383,7 +384,8 @@ class LinkTracker:
         # direction x, y, length) rows like `component_lines`'; and for the next frame,
         # each with its shift per frame (x, y) and the frames since it was last seen.
         self.expected_edges: list[tuple[float, float, float, float, float]] = []
-        self._moving_edges: list[tuple[tuple[float, ...], tuple[float, float], int]] = []
+        self._moving_edges: list[tuple[tuple[float, float, float, float, float],
+                                       tuple[float, float], int]] = []
         # Long edges that slid and have since stopped, as seen in the newest frame (same
         # rows); updated only until the pivot is agreed, for `before_pivot`.
         self.stopped_edges: list[tuple[float, ...]] = []
@@ -408,7 +410,7 @@ class LinkTracker:
         slid = [k if across > SHIFT_PX else None for k, across in follows]
         self.sliding = np.array([k is not None and bool(self._slid[k]) for k in slid], bool)
         self._slid = np.array([k is not None for k in slid], bool)
-        edges: list[int | None] = [None] * len(lines)
+        edges: Sequence[int | None] = [None] * len(lines)
         if self.reseek:
             edges = self._follow_edges(rows, [k for k, _ in follows])
         # Elongated, not sliding (nor rigid): what a pivot estimate may take.
@@ -520,7 +522,7 @@ class LinkTracker:
         return [edge for edge, *_ in edges]
 
     def _seek_again(self, rows: list[list[float]], feeds: list[bool],
-                    edges: list[int | None]) -> None:
+                    edges: Sequence[int | None]) -> None:
         """Feed the second pivot estimate the lines that may feed one (``feeds``) and
         replace the pivot where it explains the recent lines better (see the class
         docstring)."""
@@ -750,7 +752,7 @@ class LinkTracker:
 
     def _axis_guess(self, lines: np.ndarray) -> tuple[float, float] | None:
         """`before_pivot` from ``lines`` alone."""
-        if self.joint_range is None or len(lines) == 0:
+        if self.directions is None or len(lines) == 0:
             return None
         candidates = lines[(lines[:, 5] > 2.0) & (lines[:, 4] > GUESS_MIN_LENGTH)
                            & ~self._sliding(lines)]

@@ -8,7 +8,7 @@ publishes (`ImitateVideoEnv.estimator_context`): `RegistryObservation`.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import gymnasium as gym
 import numpy as np
@@ -98,7 +98,11 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
         gym.utils.RecordConstructorArgs.__init__(self, estimator=estimator, keep_frame=keep_frame)
         gym.ObservationWrapper.__init__(self, env)
         self.estimator, self.keep_frame = estimator, keep_frame
-        self.n = int(env.action_space.shape[0])
+        action_shape = env.action_space.shape
+        if action_shape is None:
+            raise TypeError(f"EstimatorObservation needs an action space with a shape, got "
+                            f"{env.action_space}")
+        self.n = int(action_shape[0])
         low = np.concatenate([np.full(self.n, -b) for b in ESTIMATE_BOUNDS.values()]
                              + [[0.0, 0.0]])
         self._low, self._high = low.astype(np.float32), (-low).astype(np.float32)
@@ -119,7 +123,7 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
         """The env's (H, 2W, 3) uint8 picture, video left and robot right, with what the
         estimator sees drawn on the video: the estimated links from their keypoints, and
         the angles and trust factor as text."""
-        picture = self.env.render()
+        picture = cast("np.ndarray | None", self.env.render())  # render_mode="rgb_array"
         if picture is None or self.last_estimate is None:
             return picture
         return draw_estimate(picture, self.last_estimate, self._parents)
