@@ -66,7 +66,7 @@ class ray_session:
     def __init__(self, address: str | None = None, num_cpus: int | None = None) -> None:
         self.address, self.num_cpus, self.started = address, num_cpus, False
 
-    def __enter__(self):
+    def __enter__(self) -> Any:
         ray = _import_ray()
         if not ray.is_initialized():
             kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": True,
