@@ -28,7 +28,7 @@ from __future__ import annotations
 import csv
 import json
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, cast
@@ -36,13 +36,13 @@ from typing import Any, cast
 import gymnasium as gym
 import numpy as np
 
-from imimic_gym.clips.video import StreamEndedError, require_frames, write_video
+from imimic_gym.clips.video import require_frames, write_video
 from imimic_gym.envs.imitate_video import imitate_env
 from imimic_gym.estimators.registry import get_estimator
-from imimic_gym.rollout import Trajectory
+from imimic_gym.rollout import Observer, Step, Trajectory, episode
 from imimic_gym.wrappers import EstimatorObservation, RegistryObservation
 
-__all__ = ["PREVIEW_HEIGHT", "MimicLog", "mimic_frames", "run_mimic"]
+__all__ = ["PREVIEW_HEIGHT", "CsvLog", "MimicLog", "ServoOut", "mimic_frames", "run_mimic"]
 
 # Rows of mimic.mp4 for taller footage: drawing the robot and encoding a 3840x1080 side-by-
 # side video cost a 1080p run more than reading and estimating the footage did.
@@ -63,6 +63,24 @@ class MimicLog:
     first_done: float | None = None  # perf_counter when the first frame was done
     last_done: float | None = None
 
+    def on_step(self, env: gym.Env, step: Step) -> None:
+        """Observer (`rollout.episode`): the estimate (``env.last_estimate``, an
+        `EstimatorObservation`), the robot angle and the latency from asking for the frame
+        to this call (the controller has answered; observers before this one, such as the
+        servo's, count too)."""
+        latency = 1000.0 * (time.perf_counter() - step.asked)
+        estimate = cast(EstimatorObservation, env).last_estimate
+        assert estimate is not None  # every observation sets it
+        self.time.append(step.info["frame_index"] / self.fps)
+        self.angles.append(estimate.angles.copy())
+        self.robot.append(step.obs["qpos"].copy())
+        self.trust.append(estimate.trust)
+        self.predicted.append(estimate.predicted)
+        self.latency_ms.append(latency)
+        self.last_done = time.perf_counter()
+        if self.first_done is None:
+            self.first_done = self.last_done
+
     def trajectory(self) -> Trajectory:
         """The run as a `Trajectory` whose target is the estimate (for `plot_tracking`)."""
         return Trajectory(time=np.asarray(self.time), target=np.asarray(self.angles),
@@ -79,69 +97,77 @@ def csv_header(n: int) -> list[str]:
             *joints("torque_nm"), "eta", "predicted", *joints("robot_rad"), "latency_ms"]
 
 
+class CsvLog:
+    """Observer: one ``mimic.csv`` row a frame (`csv_header`) from ``log``'s last frame,
+    flushed as written. Runs after ``log``."""
+
+    def __init__(self, rows: Any, log: MimicLog) -> None:
+        self.rows, self.log = rows, log
+
+    def on_step(self, env: gym.Env, step: Step) -> None:
+        estimate = cast(EstimatorObservation, env).last_estimate
+        assert estimate is not None
+        n = len(estimate.angles)
+        self.rows.writerow([f"{self.log.time[-1]:.4f}", step.info["frame_index"],
+                            *(f"{v:.6f}" for v in estimate.angles),
+                            *(f"{v:.6f}" for v in estimate.omega),
+                            *(f"{v:.6f}" for v in estimate.torque),
+                            f"{estimate.trust:.4f}", int(estimate.predicted),
+                            *(f"{v:.6f}" for v in step.obs["qpos"][:n]),
+                            f"{self.log.latency_ms[-1]:.2f}"])
+
+
+class ServoOut:
+    """Observer: each frame's joint command to ``servo`` (a `ServoBridge`): the position
+    command of the controller's action, or the simulated robot's angle under another
+    control mode."""
+
+    def __init__(self, servo: Any) -> None:
+        self.servo = servo
+
+    def on_step(self, env: gym.Env, step: Step) -> None:
+        inner = imitate_env(env)
+        self.servo.send(inner.action_to_command(step.action) if inner.control == "position"
+                        else step.obs["qpos"])
+
+
 def mimic_frames(env: EstimatorObservation, controller: Any, log: MimicLog, rows: Any = None,
-                 servo: Any = None,
-                 on_frame: Callable[[MimicLog], None] | None = None,
+                 servo: Any = None, observers: Sequence[Observer] = (),
                  realtime: bool = False) -> Iterator[np.ndarray]:
     """Run ``controller`` on the estimator-wrapped ``env`` to the end of its clip (or of
-    the stream), yielding each side-by-side frame (H, 2W, 3) uint8 RGB as it is made.
+    the stream) through `rollout.episode`, yielding each side-by-side frame (H, 2W, 3)
+    uint8 RGB as it is made.
 
-    Per frame: the estimate and robot angle go into ``log``, a row into the csv writer
-    ``rows`` (flushed), the joint command to ``servo`` (a `ServoBridge`), and ``on_frame``
-    is called (progress display). A stream that ends early ends the run, not an error.
-    ``realtime`` waits until frame i's time (i / fps after the first) before reading it.
+    Observers, in order: the joint command to ``servo`` (a `ServoBridge`), ``log`` (the
+    estimate, robot angle and latency), a row into the csv writer ``rows``, then
+    ``observers`` (a progress display). A stream that ends early ends the run, not an
+    error. ``realtime`` waits until frame i's time (i / fps after the first).
     """
-    inner, n = imitate_env(env), env.n
+    watching: list[Observer] = [] if servo is None else [ServoOut(servo)]
+    watching.append(log)
+    if rows is not None:
+        watching.append(CsvLog(rows, log))
+    for _ in episode(env, controller, seed=0, observers=[*watching, *observers],
+                     realtime=realtime):
+        yield cast(np.ndarray, env.render())  # render_mode="rgb_array"
 
-    def record(obs: dict[str, Any], info: dict[str, Any], started: float) -> np.ndarray:
-        action = controller(obs)
-        if servo is not None:
-            command = (inner.action_to_command(action) if inner.control == "position"
-                       else obs["qpos"])
-            servo.send(command)
-        latency = 1000.0 * (time.perf_counter() - started)
-        estimate = env.last_estimate
-        assert estimate is not None  # every observation sets it
-        t = info["frame_index"] / log.fps
-        log.time.append(t)
-        log.angles.append(estimate.angles.copy())
-        log.robot.append(obs["qpos"].copy())
-        log.trust.append(estimate.trust)
-        log.predicted.append(estimate.predicted)
-        log.latency_ms.append(latency)
-        if rows is not None:
-            rows.writerow([f"{t:.4f}", info["frame_index"],
-                           *(f"{v:.6f}" for v in estimate.angles),
-                           *(f"{v:.6f}" for v in estimate.omega),
-                           *(f"{v:.6f}" for v in estimate.torque),
-                           f"{estimate.trust:.4f}", int(estimate.predicted),
-                           *(f"{v:.6f}" for v in obs["qpos"][:n]), f"{latency:.2f}"])
-        log.last_done = time.perf_counter()
-        if log.first_done is None:
-            log.first_done = log.last_done
-        if on_frame is not None:
-            on_frame(log)
-        return action
 
-    started = time.perf_counter()
-    obs, info = env.reset(seed=0)
-    if hasattr(controller, "reset"):
-        controller.reset()
-    action = record(obs, info, started)
-    yield cast(np.ndarray, env.render())  # render_mode="rgb_array"
-    done, first = False, time.perf_counter()
-    while not done:
-        if realtime:
-            time.sleep(max(0.0, first + (info["frame_index"] + 1) / log.fps
-                           - time.perf_counter()))
-        started = time.perf_counter()
-        try:
-            obs, _, terminated, truncated, info = env.step(action)
-        except StreamEndedError:
-            return
-        action = record(obs, info, started)
-        yield cast(np.ndarray, env.render())
-        done = terminated or truncated
+class _Progress:
+    """Observer: the progress bar, with latency, eta and a status twice a second."""
+
+    def __init__(self, bar: Any, log: MimicLog, real_people: bool) -> None:
+        self.bar, self.log, self.real_people = bar, log, real_people
+        self.last_update = time.perf_counter()
+
+    def on_step(self, env: gym.Env, step: Step) -> None:
+        self.bar.update(1)
+        now, log = time.perf_counter(), self.log
+        if now - self.last_update > 0.5 and len(log.latency_ms) > 1:
+            status = ("reading" if log.trust[-1] > 0
+                      else "nobody in view: holding" if self.real_people else "no reading")
+            self.bar.set_postfix(latency_ms=f"{np.mean(log.latency_ms[-30:]):.1f}",
+                                 eta=f"{log.trust[-1]:.2f}", status=status)
+            self.last_update = now
 
 
 def steady_rate(log: MimicLog) -> float:
@@ -193,18 +219,7 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
     log = MimicLog(fps=float(clip.fps))
     bar = tqdm(total=len(clip) if known_length else None, unit="frame", disable=not progress,
                desc=f"mimic {Path(source).name}")
-    last_update = [time.perf_counter()]
-
-    def show(log: MimicLog) -> None:
-        bar.update(1)
-        now = time.perf_counter()
-        if now - last_update[0] > 0.5 and len(log.latency_ms) > 1:
-            recent = log.latency_ms[-30:]
-            status = ("reading" if log.trust[-1] > 0
-                      else "nobody in view: holding" if entry.real_people else "no reading")
-            bar.set_postfix(latency_ms=f"{np.mean(recent):.1f}", eta=f"{log.trust[-1]:.2f}",
-                            status=status)
-            last_update[0] = now
+    show = _Progress(bar, log, entry.real_people)
 
     ended = "end of footage"
     started = time.perf_counter()
@@ -213,7 +228,7 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
         rows.writerow(csv_header(env.n))
         try:
             write_video(out / "mimic.mp4",
-                        mimic_frames(env, controller, log, rows, servo, show, realtime),
+                        mimic_frames(env, controller, log, rows, servo, [show], realtime),
                         clip.fps)
         except KeyboardInterrupt:
             ended = "stopped by Ctrl-C"

@@ -1,10 +1,11 @@
-"""Run a controller through one episode with a plain Gymnasium loop, and score it."""
+"""The episode loop (a plain Gymnasium loop with observers), its trajectory, its scores."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import time
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
-from typing import Any, cast
+from typing import Any, Protocol, cast
 
 import gymnasium as gym
 import numpy as np
@@ -18,7 +19,7 @@ from imimic_gym.metrics import (
     recovery_time_s,
 )
 
-__all__ = ["Trajectory", "run_episode"]
+__all__ = ["Observer", "Step", "Trajectory", "TrajectoryLog", "episode", "run_episode"]
 
 
 @dataclass
@@ -54,49 +55,120 @@ class Trajectory:
         }
 
 
+@dataclass
+class Step:
+    """One frame of an episode, after the controller has answered it. ``reward`` is the
+    reward of the step that produced ``obs`` (0 for the reset's observation); ``action``
+    is the controller's answer to ``obs``; ``asked`` is `time.perf_counter()` when the
+    loop asked the env for this frame (reset or step)."""
+
+    obs: dict[str, Any]
+    info: dict[str, Any]
+    reward: float
+    action: np.ndarray
+    asked: float
+
+
+class Observer(Protocol):
+    """Something that watches an episode (`episode`): logs, files, a servo, a display."""
+
+    def on_step(self, env: gym.Env, step: Step) -> None: ...
+
+
+def episode(env: gym.Env, controller: Callable[[dict[str, Any]], np.ndarray],
+            seed: int | None = None, options: dict[str, Any] | None = None,
+            observers: Sequence[Observer] = (), realtime: bool = False) -> Iterator[Step]:
+    """The episode loop: ``obs, info = env.reset(seed=seed, options=options)``, then, for
+    each frame, ``action = controller(obs)``, every observer's ``on_step``, the `Step`
+    yielded, and ``env.step(action)``, to the clip's end (or the end of a streamed clip).
+
+    ``realtime`` waits until frame i's time (i / fps after the first) before asking for
+    it, so a file plays at its own speed. The controller answers the last frame too (its
+    action is not stepped). Every loop of the package runs this one.
+    """
+    from imimic_gym.clips.video import StreamEndedError
+
+    asked = time.perf_counter()
+    obs, info = env.reset(seed=seed, options=options)
+    if hasattr(controller, "reset"):
+        controller.reset()
+    fps, first = float(env.metadata["render_fps"]), time.perf_counter()
+    reward, done = 0.0, False
+    while True:
+        step = Step(obs, info, reward, controller(obs), asked)
+        for observer in observers:
+            observer.on_step(env, step)
+        yield step
+        if done:
+            return
+        if realtime:
+            time.sleep(max(0.0, first + (info["frame_index"] + 1) / fps - time.perf_counter()))
+        asked = time.perf_counter()
+        try:
+            obs, r, terminated, truncated, info = env.step(step.action)
+        except StreamEndedError:
+            return
+        reward, done = float(r), terminated or truncated
+
+
+class TrajectoryLog:
+    """Observer: the episode as a `Trajectory` (``record``: with ``env.render()`` of
+    every frame)."""
+
+    def __init__(self, record: bool = False, fps: float = 1.0) -> None:
+        self.record, self.fps = record, fps
+        self.index: list[int] = []
+        self.target: list[np.ndarray] = []
+        self.robot: list[np.ndarray] = []
+        self.reward: list[float] = []
+        self.occlusion: list[float] = []
+        self.trust: list[float] = []
+        self.frames: list[np.ndarray] = []
+
+    def on_step(self, env: gym.Env, step: Step) -> None:
+        self.fps = float(env.metadata["render_fps"])
+        self.add(step)
+        if self.record:
+            self.frames.append(cast(np.ndarray, env.render()))  # render_mode="rgb_array"
+
+    def add(self, step: Step) -> None:
+        """Log one frame (a vector env's loop logs each sub-env's frames this way)."""
+        obs, info = step.obs, step.info
+        self.index.append(info["frame_index"])
+        self.target.append(info["target_angles"])
+        self.robot.append(obs["qpos"])
+        self.occlusion.append(info["occlusion"])
+        self.reward.append(step.reward)
+        if "estimate" in obs:
+            trust_at = estimate_fields(len(obs["qpos"]))["trust"].start
+            self.trust.append(float(obs["estimate"][trust_at]))
+
+    def trajectory(self) -> Trajectory:
+        return Trajectory(
+            time=np.asarray(self.index) / self.fps,
+            target=np.asarray(self.target),
+            robot=np.asarray(self.robot),
+            reward=np.asarray(self.reward),
+            occlusion=np.asarray(self.occlusion),
+            frames=self.frames,
+            trust=np.asarray(self.trust) if self.trust else None,
+        )
+
+
 def run_episode(
     env: gym.Env,
     controller: Callable[[dict[str, Any]], np.ndarray],
     seed: int | None = None,
     record: bool = False,
     options: dict[str, Any] | None = None,
+    observers: Sequence[Observer] = (),
 ) -> Trajectory:
-    """``obs, info = env.reset(seed=seed, options=options)``, then step ``controller(obs)``
-    to the clip's end. ``record`` keeps ``env.render()`` of every frame.
+    """The `episode` loop to the clip's end, as a `Trajectory`; ``record`` keeps
+    ``env.render()`` of every frame; ``observers`` watch it too.
 
     The first frame, before any action, is part of the trajectory (reward 0).
     """
-    obs, info = env.reset(seed=seed, options=options)
-    if hasattr(controller, "reset"):
-        controller.reset()
-    index, target, robot, reward, occlusion, frames, trust = [], [], [], [], [], [], []
-    trust_at = None
-    if "estimate" in obs:
-        trust_at = estimate_fields(len(obs["qpos"]))["trust"].start
-
-    def log(obs: dict[str, Any], info: dict[str, Any], r: float) -> None:
-        index.append(info["frame_index"])
-        target.append(info["target_angles"])
-        robot.append(obs["qpos"])
-        occlusion.append(info["occlusion"])
-        reward.append(r)
-        if trust_at is not None:
-            trust.append(float(obs["estimate"][trust_at]))
-        if record:
-            frames.append(cast(np.ndarray, env.render()))  # render_mode="rgb_array"
-
-    log(obs, info, 0.0)
-    done = False
-    while not done:
-        obs, r, terminated, truncated, info = env.step(controller(obs))
-        log(obs, info, float(r))
-        done = terminated or truncated
-    return Trajectory(
-        time=np.asarray(index) / float(env.metadata["render_fps"]),
-        target=np.asarray(target),
-        robot=np.asarray(robot),
-        reward=np.asarray(reward),
-        occlusion=np.asarray(occlusion),
-        frames=frames,
-        trust=np.asarray(trust) if trust_at is not None else None,
-    )
+    log = TrajectoryLog(record)
+    for _ in episode(env, controller, seed=seed, options=options, observers=[log, *observers]):
+        pass
+    return log.trajectory()

@@ -21,8 +21,7 @@ from tqdm import tqdm
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
 from imimic_gym.estimators.registry import ESTIMATORS
-from imimic_gym.estimators.types import estimate_fields
-from imimic_gym.rollout import Trajectory, run_episode
+from imimic_gym.rollout import Step, Trajectory, TrajectoryLog, run_episode
 
 __all__ = [
     "CONTROLLERS", "FIRST_HELD_OUT_SEED", "METRICS", "RunConfig", "estimator_wrapper",
@@ -167,37 +166,24 @@ def _run_vector(config: RunConfig, num_envs: int) -> list[Trajectory]:
 
 def _vector_episode(vec: gym.vector.SyncVectorEnv | gym.vector.AsyncVectorEnv,
                     controllers: list, seeds: list[int], fps: float) -> list[Trajectory]:
-    """One clip per sub-env (all clips of a scenario have the same length)."""
+    """One clip per sub-env (all clips of a scenario have the same length), stepped in
+    lockstep; each sub-env's frames logged as `rollout.episode` logs one env's."""
     vec.set_attr("clip_seeds", [(s,) for s in seeds])
     obs, info = vec.reset(seed=cast("list[int | None]", seeds))  # the stub's list is invariant
     for controller in controllers:
         controller.reset()
-    n = len(seeds)
-    logs: list[dict[str, list]] = [{"t": [], "target": [], "robot": [], "reward": [],
-                                    "occlusion": [], "trust": []} for _ in range(n)]
-    trust_at = estimate_fields(obs["qpos"].shape[1])["trust"].start
-
-    def log(obs: dict[str, np.ndarray], info: dict[str, Any], reward: np.ndarray) -> None:
-        for i, entry in enumerate(logs):
-            entry["t"].append(info["frame_index"][i] / fps)
-            entry["target"].append(info["target_angles"][i])
-            entry["robot"].append(obs["qpos"][i])
-            entry["occlusion"].append(info["occlusion"][i])
-            entry["trust"].append(float(obs["estimate"][i, trust_at]))
-            entry["reward"].append(float(reward[i]))
-
-    log(obs, info, np.zeros(n))
-    done = np.zeros(n, dtype=bool)
-    while not done.all():
-        actions = np.stack([c({k: v[i] for k, v in obs.items()})
-                            for i, c in enumerate(controllers)])
+    logs = [TrajectoryLog(fps=fps) for _ in seeds]
+    reward, done = np.zeros(len(seeds)), np.zeros(len(seeds), dtype=bool)
+    while True:
+        single = [{k: v[i] for k, v in obs.items()} for i in range(len(seeds))]
+        actions = np.stack([c(o) for c, o in zip(controllers, single, strict=True)])
+        for i, log in enumerate(logs):
+            log.add(Step(single[i], {k: v[i] for k, v in info.items()}, float(reward[i]),
+                         actions[i], 0.0))
+        if done.all():
+            return [log.trajectory() for log in logs]
         obs, reward, terminated, truncated, info = vec.step(actions)
-        log(obs, info, reward)
         done = terminated | truncated
-    return [Trajectory(time=np.asarray(e["t"]), target=np.asarray(e["target"]),
-                       robot=np.asarray(e["robot"]), reward=np.asarray(e["reward"]),
-                       occlusion=np.asarray(e["occlusion"]), trust=np.asarray(e["trust"]))
-            for e in logs]
 
 
 def summarise(config: RunConfig, trajectories: Sequence[Trajectory]) -> dict[str, Any]:

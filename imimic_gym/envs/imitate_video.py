@@ -290,7 +290,10 @@ class ImitateVideoEnv(gym.Env, EzPickle):
     # Helpers -------------------------------------------------------------------------
     def action_to_command(self, action: np.ndarray) -> np.ndarray:
         """Actuator command (rad, rad/s or N m) for a normalised action in [-1, 1]."""
-        a = np.clip(np.asarray(action, dtype=np.float64), -1.0, 1.0)
+        return self._command(np.clip(np.asarray(action, dtype=np.float64), -1.0, 1.0))
+
+    def _command(self, a: np.ndarray) -> np.ndarray:
+        """`action_to_command` of an action already in [-1, 1]."""
         return self._ctrl_low + (a + 1.0) * 0.5 * (self._ctrl_high - self._ctrl_low)
 
     def command_to_action(self, command: np.ndarray) -> np.ndarray:
@@ -404,7 +407,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         if not math.isfinite(sum(a.tolist())):  # NaN and +-inf survive a sum; fast for n <= 3
             raise ValueError(f"action must be finite numbers in [-1, 1], got {a.tolist()}")
         a = a.clip(-1.0, 1.0)
-        self.data.ctrl[:] = self._ctrl_low + (a + 1.0) * 0.5 * (self._ctrl_high - self._ctrl_low)
+        self.data.ctrl[:] = self._command(a)
         unstable = self.data.warning[_BAD_QACC].number
         mujoco.mj_step(self.model, self.data, nstep=self.n_substeps)
         if self.data.warning[_BAD_QACC].number != unstable:
