@@ -1,5 +1,5 @@
 """RESULTS.md section for issue 5 (controllers and the evaluation suite), rendered from
-benchmarks/results/tracking.json, paper.json, paper_time.json and checkpoints/tracker.json.
+benchmarks/results/tracking_heldout.json, paper.json, paper_time.json and checkpoints/tracker.json.
 Called by write_results.py."""
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ def _verdict(ok: bool) -> str:
 
 def render(load: Callable[[str], object],
            table: Callable[[list[str], list[list[str]]], str]) -> str:
-    tracking, paper, timing = load("tracking"), load("paper"), load("paper_time")
+    tracking, paper, timing = load("tracking_heldout"), load("paper"), load("paper_time")
     meta = json.loads((SHIPPED_CHECKPOINTS / "tracker.json").read_text())
     rmse = {(r["scenario"], r["controller"]): r["mean"]["rmse_deg"] for r in tracking}
     seeds = tracking[0]["seeds"]
@@ -57,8 +57,8 @@ def render(load: Callable[[str], object],
 ## Tracking controllers and the evaluation suite (issue 5)
 
 Command: `.venv/bin/imimic eval --scenario exp2-servo exp3-forearm-low --estimator don
---controller position velocity torque learned --episodes {len(seeds)} --num-envs 2 --out benchmarks/results/tracking --json
-benchmarks/results/tracking.json`
+--controller position velocity torque learned --episodes {len(seeds)} --num-envs 2 --out benchmarks/results/tracking_heldout --json
+benchmarks/results/tracking_heldout.json`
 
 DON's estimates drive every controller; held-out clip seeds {seeds[0]}-{seeds[-1]} (training
 used seeds below 1000), full 150-frame clips, means over the seeds. Jerk is the robot's

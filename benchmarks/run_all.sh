@@ -39,8 +39,8 @@ fi
 "$BIN/python" benchmarks/cnn_speed.py --json benchmarks/results/cnn_speed.json
 "$BIN/imimic" eval --scenario exp2-servo exp3-forearm-low --estimator don \
     --controller position velocity torque learned \
-    --episodes 10 --num-envs 2 --out benchmarks/results/tracking \
-    --json benchmarks/results/tracking.json
+    --episodes 10 --num-envs 2 --out benchmarks/results/tracking_heldout \
+    --json benchmarks/results/tracking_heldout.json
 "$BIN/imimic" eval --scenario exp2-servo exp3-forearm-low --estimator don \
     --controller position velocity learned --episodes 10 --first-seed 1010 \
     --num-envs 2 --json benchmarks/results/tracking_fresh.json
