@@ -1,5 +1,5 @@
 """RESULTS.md section for issue 5 (controllers and the evaluation suite), rendered from
-benchmarks/results/tracking_heldout.json, paper.json, paper_time.json and checkpoints/tracker.json.
+benchmarks/results/tracking_heldout.json, paper_heldout.json, paper_time.json and checkpoints/tracker.json.
 Called by write_results.py."""
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ def _verdict(ok: bool) -> str:
 
 def render(load: Callable[[str], object],
            table: Callable[[list[str], list[list[str]]], str]) -> str:
-    tracking, paper, timing = load("tracking_heldout"), load("paper"), load("paper_time")
+    tracking, paper, timing = load("tracking_heldout"), load("paper_heldout"), load("paper_time")
     meta = json.loads((SHIPPED_CHECKPOINTS / "tracker.json").read_text())
     rmse = {(r["scenario"], r["controller"]): r["mean"]["rmse_deg"] for r in tracking}
     seeds = tracking[0]["seeds"]
@@ -84,8 +84,8 @@ Against issue 5's acceptance:
 {fresh_seeds(load, table)}{error_sources(load, table)}{candidates(load, table, meta['command'])}{retrain(load, table, meta['command'])}
 ### The paper's experiments
 
-Command: `.venv/bin/imimic eval --paper --json benchmarks/results/paper.json --out
-benchmarks/results/paper` ({paper[0]['episodes']} held-out seeds each).
+Command: `.venv/bin/imimic eval --paper --json benchmarks/results/paper_heldout.json --out
+benchmarks/results/paper_heldout` ({paper[0]['episodes']} held-out seeds each, retired).
 
 {paper_table(paper)}
 

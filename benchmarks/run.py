@@ -25,6 +25,7 @@ RESULTS = ROOT / "results"
 SUITES = {
     "accuracy": "every video estimator on the test pool, per scenario and per joint",
     "tracking": "the controllers on the test pool, and the learned tracker's margin",
+    "paper": "the paper's experiments 1-4 on the test pool against its statements",
     "scaleout": "Ray against one process on the same sweep and the same renders, and the "
                 "cost of 10,000 clips on N nodes",
     "real": "real people: the pose model, pose-seeded DON and every estimator on real "
@@ -55,7 +56,7 @@ def main() -> None:
                              "existing results/<suite>.json (e.g. speed again on a quiet "
                              "machine); default: all")
     parser.add_argument("--backend", default="local", choices=BACKENDS,
-                        help="suites that sweep clips (accuracy, tracking): run the cells "
+                        help="suites that sweep clips (accuracy, tracking, paper): run the cells "
                              "here or as Ray tasks (default: %(default)s)")
     parser.add_argument("--address", default=None,
                         help="--backend ray: an existing cluster (default: a local Ray)")

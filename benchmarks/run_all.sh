@@ -47,7 +47,7 @@ fi
 "$BIN/python" benchmarks/servo_error_sources.py --json benchmarks/results/servo_error_sources.json
 # benchmarks/tracker_candidates.py compares candidate policies on validation clips; it needs
 # the candidates' .pt files (training/train_tracker.py runs), so it is not rerun here.
-"$BIN/imimic" eval --paper --json benchmarks/results/paper.json --out benchmarks/results/paper
+"$BIN/imimic" eval --paper --json benchmarks/results/paper_heldout.json --out benchmarks/results/paper_heldout
 "$BIN/python" benchmarks/eval_paper_time.py --json benchmarks/results/paper_time.json
 # DON's time by stage (issue 3 speed), and that the compiled loops (c3f9eeb) left every
 # estimate as it was at 0ebd481, the last revision without them.

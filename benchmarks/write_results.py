@@ -99,7 +99,7 @@ which no choice has touched; `docs/decisions/evaluation-protocol.md`). The secti
 them keep the record of how the code got here; their "held-out" figures come from seeds
 1000-1009 (1000-1019 for the CNN), evaluated after many rounds of choices and now
 **retired**: where they differ from the test pool, the test pool is right.
-{suite_section("accuracy")}{suite_section("tracking")}{suite_section("scaleout")}
+{suite_section("accuracy")}{suite_section("tracking")}{suite_section("paper")}{suite_section("scaleout")}
 ## Environment speed (issue 2)
 
 Command: `.venv/bin/imimic bench env --json benchmarks/results/env.json`

@@ -9,7 +9,9 @@ function (Ray ships it by reference) and its items and results picklable.
 
 The Ray workers see the caller's ``MUJOCO_GL``, ``PYOPENGL_PLATFORM`` and ``IMIMIC_*``
 settings (the clip cache's folder and bound) when this module starts or joins the
-cluster; on a cluster every node needs imimic_gym installed (README, "Scale out").
+cluster; on a cluster every node needs imimic_gym installed (README, "Scale out"). The
+workers' own output (rendering progress bars) stays in Ray's logs, not on the caller's
+screen: a failed item's error comes back in its `Outcome`.
 """
 
 from __future__ import annotations
@@ -69,7 +71,7 @@ class ray_session:
     def __enter__(self) -> Any:
         ray = _import_ray()
         if not ray.is_initialized():
-            kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": True,
+            kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False,
                                       "runtime_env": {"env_vars": _forwarded_environment()}}
             if self.address is None:
                 kwargs["num_cpus"] = self.num_cpus

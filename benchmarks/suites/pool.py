@@ -66,7 +66,8 @@ def table(head: list[str], rows: list[list[str]]) -> str:
 def pool_text(data: dict[str, Any]) -> str:
     m = data["machine"]
     seeds = data["seeds"]
-    return (f"Clip seeds {seeds[0]}-{seeds[-1]} ({len(seeds)} clips a scenario), the test "
-            "pool: no choice was made on them (docs/decisions/evaluation-protocol.md). "
+    pool = ("development clips, to check the suite runs" if data.get("quick") else
+            "the test pool: no choice was made on them (docs/decisions/evaluation-protocol.md)")
+    return (f"Clip seeds {seeds[0]}-{seeds[-1]} ({len(seeds)} clips a scenario), {pool}. "
             f"Machine: {m['cpu']}, {m['cores']} cores. Means over clips with 95% percentile "
             "bootstrap intervals (2000 resamples, seed 0) and the worst clips (seed: value).")
