@@ -3,11 +3,13 @@ the JSON alone.
 
     .venv/bin/python benchmarks/run.py real            # run, write results/real.json + .md
     .venv/bin/python benchmarks/run.py real --render   # re-render results/real.md only
+    .venv/bin/python benchmarks/run.py all --backend ray   # every suite, then RESULTS.md
 
 Each suite is a module in ``benchmarks/suites/`` with ``run(args) -> dict`` (everything
 it measured, the machine included) and ``render(data) -> str`` (Markdown, every figure
-read from ``data``). ``benchmarks/write_results.py`` puts the rendered sections into
-RESULTS.md.
+read from ``data``). After a run, ``benchmarks/write_results.py`` puts the rendered
+sections into RESULTS.md (with the older sections it still writes from the scripts that
+`run_all.sh` runs).
 """
 
 from __future__ import annotations
@@ -44,9 +46,10 @@ def load(name: str):
 
 def main() -> None:
     parser = argparse.ArgumentParser(
-        description="Run a named benchmark suite: " + "; ".join(
-            f"{name}: {text}" for name, text in SUITES.items()))
-    parser.add_argument("suite", choices=sorted(SUITES))
+        description="Run a named benchmark suite (or all), write results/<suite>.json and "
+                    ".md, and RESULTS.md from them: " + "; ".join(
+                        f"{name}: {text}" for name, text in SUITES.items()))
+    parser.add_argument("suite", choices=[*sorted(SUITES), "all"])
     parser.add_argument("--render", action="store_true",
                         help="only render results/<suite>.md from results/<suite>.json")
     parser.add_argument("--quick", action="store_true",
@@ -56,16 +59,26 @@ def main() -> None:
                              "existing results/<suite>.json (e.g. speed again on a quiet "
                              "machine); default: all")
     parser.add_argument("--backend", default="local", choices=BACKENDS,
-                        help="suites that sweep clips (accuracy, tracking, paper): run the cells "
-                             "here or as Ray tasks (default: %(default)s)")
+                        help="suites that sweep clips (accuracy, tracking, paper): run the "
+                             "cells here or as Ray tasks (default: %(default)s)")
     parser.add_argument("--address", default=None,
                         help="--backend ray: an existing cluster (default: a local Ray)")
     parser.add_argument("--resume", action="store_true",
                         help="suites that sweep clips: go on from results/<suite>.cells.jsonl "
                              "after an interruption")
     args = parser.parse_args()
-    suite = load(args.suite)
-    data_path, report_path = RESULTS / f"{args.suite}.json", RESULTS / f"{args.suite}.md"
+    for name in SUITES if args.suite == "all" else [args.suite]:
+        run_suite(name, args)
+    if not args.quick:
+        import write_results
+
+        write_results.main()
+        print(f"wrote {ROOT / 'RESULTS.md'}")
+
+
+def run_suite(name: str, args: argparse.Namespace) -> None:
+    suite = load(name)
+    data_path, report_path = RESULTS / f"{name}.json", RESULTS / f"{name}.md"
     if args.render:
         data = json.loads(data_path.read_text())
     else:

@@ -21,9 +21,9 @@ mkdir -p benchmarks/results
     --estimator don --episodes 30 --first-seed 2000 --json benchmarks/results/eval_fresh.json
 "$BIN/python" benchmarks/don_known_pivot.py --json benchmarks/results/don_known_pivot.json
 "$BIN/python" benchmarks/don_error_sources.py --json benchmarks/results/don_error_sources.json
-# Real people (the pose model, pose-seeded DON, every estimator on real photos and videos;
-# the real parts are skipped with a message when ../shared/realdata is absent).
-"$BIN/python" benchmarks/run.py real
+# The runner's suites: the test pool (accuracy, tracking, paper), real people (parts that
+# need ../shared/realdata are skipped with a message without it), scale-out on Ray.
+"$BIN/python" benchmarks/run.py all --backend ray
 # CNN + refiner (issue 4): shipped checkpoints, learning curve, real photos, eval, speed.
 "$BIN/python" training/train_cnn.py --links 1 --out imimic_gym/data/checkpoints/cnn_arm1.pt \
     --json benchmarks/results/cnn_train_arm1.json
