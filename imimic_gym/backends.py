@@ -60,10 +60,11 @@ def _import_ray():
 
 
 class ray_session:
-    """Context manager: a Ray connection for the block. Joins a running one in this
-    process as it is; otherwise starts a local Ray (``address=None``: this machine's
-    CPUs, no dashboard) or connects to the cluster at ``address`` ("auto",
-    "ray://host:10001", "host:6379"), and shuts it down afterwards."""
+    """Context manager: a Ray connection for the block. Joins a connection this process
+    already has as it is; otherwise calls ``ray.init(address)`` (no dashboard) and shuts
+    it down afterwards: ``address`` names a cluster ("auto", "ray://host:10001",
+    "host:6379"), or None for Ray's default, the Ray that ``ray start`` runs on this
+    machine if there is one, else a new local Ray of ``num_cpus`` (default: all CPUs)."""
 
     def __init__(self, address: str | None = None, num_cpus: int | None = None) -> None:
         self.address, self.num_cpus, self.started = address, num_cpus, False

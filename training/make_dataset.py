@@ -41,7 +41,8 @@ def main() -> None:
                         help="render here (default) or one Ray task per clip (pip install "
                              "'imimic_gym[ray]')")
     parser.add_argument("--address", default=None, metavar="ADDR",
-                        help="--backend ray: an existing cluster (default: a local Ray)")
+                        help="--backend ray: a cluster (default: the Ray that `ray start` "
+                             "runs here, else a new local one)")
     args = parser.parse_args()
     name = args.name or f"arm{args.links}"
     offset = 10_000 * (args.links - 1)

@@ -113,8 +113,8 @@ class Args:
     backend: str = "local"
     """--search: trials one after another here (local) or as Ray Tune trials (ray)"""
     address: str = ""
-    """--backend ray: an existing Ray cluster ('auto', 'ray://host:10001'); default: a
-    local Ray on this machine's CPUs"""
+    """--backend ray: a Ray cluster ('auto', 'ray://host:10001'); default: the Ray that
+    `ray start` runs on this machine, else a new local one"""
 
 
 def parse_args() -> Args:

@@ -16,9 +16,14 @@ parallel efficiency measured here, and the arithmetic for 10,000 clips on N node
 
 from __future__ import annotations
 
+import contextlib
 import os
+import subprocess
+import sys
 import tempfile
 import time
+from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 from imimic_gym.backends import fan_out
@@ -50,35 +55,60 @@ def _serial(seeds: int, cache: str) -> tuple[float, list]:
     return time.perf_counter() - start, results
 
 
-def _on_ray(cells: list[Cell], cache: str) -> tuple[float, list]:
-    os.environ["IMIMIC_CACHE_DIR"] = cache  # Ray's workers get it when Ray starts
+def _on_ray(cells: list[Cell], cache: str, address: str | None) -> tuple[float, list]:
+    os.environ["IMIMIC_CACHE_DIR"] = cache  # Ray's workers get it when the sweep joins
     start = time.perf_counter()
-    result = run_sweep(cells, backend="ray", progress=False)
+    result = run_sweep(cells, backend="ray", address=address, progress=False)
     seconds = time.perf_counter() - start
     if result.failures:
         raise RuntimeError(f"cells failed: {result.failures}")
     return seconds, summaries(cells, result.rows)
 
 
+@contextlib.contextmanager
+def running_ray(cache: str) -> Iterator[None]:
+    """A local Ray of this machine's CPUs started beforehand (``ray start --head``), as a
+    user keeps one for several sweeps; stopped afterwards."""
+    ray = Path(sys.executable).with_name("ray")
+    env = {**os.environ, "IMIMIC_CACHE_DIR": cache}
+    subprocess.run([str(ray), "start", "--head", f"--num-cpus={os.cpu_count()}",
+                    "--include-dashboard=false", "--disable-usage-stats"], check=True,
+                   env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        yield
+    finally:
+        subprocess.run([str(ray), "stop", "--force"], check=False,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
 def sweep(quick: bool) -> dict[str, Any]:
     """A protocol-sized sweep (40 seeds a configuration: 240 cells) on clips not rendered
-    yet and again cached, then the issue's minimum of 24 cells (4 seeds), cached."""
+    yet and again cached, then the issue's minimum of 24 cells (4 seeds), cached; each
+    in one process, on a Ray the sweep starts, and on a Ray already running."""
     big, small = (2, 1) if quick else (40, 4)
     out: dict[str, Any] = {"frames": get_scenario(SCENARIOS[0]).n_frames,
                            "scenarios": list(SCENARIOS), "controllers": list(CONTROLLERS),
                            "first_seed": FIRST_SEED, "runs": []}
-    with tempfile.TemporaryDirectory() as here, tempfile.TemporaryDirectory() as there:
-        for seeds, cache in ((big, "cold"), (big, "warm"), (small, "warm")):
+    plan = ((big, "cold"), (big, "warm"), (small, "warm"))
+    with contextlib.ExitStack() as stack:
+        here, started, running = (stack.enter_context(tempfile.TemporaryDirectory())
+                                  for _ in range(3))
+        for seeds, cache in plan:
             cells = _cells(seeds)
             serial, local_rows = _serial(seeds, here)
-            parallel, ray_rows = _on_ray(cells, there)
-            out["runs"].append({
-                "cells": len(cells), "seeds": seeds, "cache": cache, "serial_s": serial,
-                "ray_s": parallel, "ratio": parallel / serial,
-                "identical": local_rows == ray_rows, "met": parallel / serial <= TARGET_RATIO})
-            print(f"sweep of {len(cells)} cells, {cache} cache: serial {serial:.1f} s, ray "
-                  f"{parallel:.1f} s, ratio {parallel / serial:.2f}, identical "
-                  f"{local_rows == ray_rows}")
+            run: dict[str, Any] = {"cells": len(cells), "seeds": seeds, "cache": cache,
+                                   "serial_s": serial}
+            for name, folder in (("started", started), ("running", running)):
+                with running_ray(folder) if name == "running" else contextlib.nullcontext():
+                    seconds, ray_rows = _on_ray(cells, folder,
+                                                "auto" if name == "running" else None)
+                run[name] = {"ray_s": seconds, "ratio": seconds / serial,
+                             "identical": local_rows == ray_rows,
+                             "met": seconds / serial <= TARGET_RATIO}
+                print(f"sweep of {len(cells)} cells, {cache} cache, Ray {name}: serial "
+                      f"{serial:.1f} s, Ray {seconds:.1f} s, ratio {seconds / serial:.2f}, "
+                      f"identical {local_rows == ray_rows}", flush=True)
+            out["runs"].append(run)
     return out
 
 
@@ -130,32 +160,40 @@ same cells in the same run (target: at most {data['target_ratio']}).
 {quick}"""]
     s = data.get("sweep")
     if s:
-        rows = [f"| {r['cells']} | {r['seeds']} | {r['cache']} | {r['serial_s']:.1f} | "
-                f"{r['ray_s']:.1f} | {r['ratio']:.2f} | "
-                f"{'**met**' if r['met'] else '**missed**'} | "
-                f"{'yes' if r['identical'] else '**no**'} |" for r in s["runs"]]
+        def verdict(run: dict[str, Any]) -> str:
+            return (f"{run['ray_s']:.1f} | {run['ratio']:.2f} "
+                    f"{'**met**' if run['met'] else '**missed**'}")
+
+        rows = [f"| {r['cells']} | {r['cache']} | {r['serial_s']:.1f} | "
+                f"{verdict(r['started'])} | {verdict(r['running'])} | "
+                f"{'yes' if r['started']['identical'] and r['running']['identical'] else '**no**'}"
+                " |" for r in s["runs"]]
         warm = [r for r in s["runs"] if r["cache"] == "warm"]
         per_cell = warm[0]["serial_s"] / warm[0]["cells"]
-        overhead = [r["ray_s"] - r["serial_s"] / data["machine"]["cores"] for r in warm]
+        cores = data["machine"]["cores"]
+        overhead = [r["started"]["ray_s"] - r["serial_s"] / cores for r in warm]
         out.append(f"""### Sweeps
 
 {', '.join(f'`{x}`' for x in s['scenarios'])} x DON with the
 {' and the '.join(s['controllers'])} controller x seeds from {s['first_seed']},
 {s['frames']} frames each: `imimic eval --scenario ... --controller position learned
 --episodes K --first-seed {s['first_seed']} --backend ray` against the same command
-without `--backend` (one process, one env per configuration). "cold": neither backend
-had the clips rendered (each its own empty cache), as in a sweep over a fresh pool.
+without `--backend` (one process, one env per configuration). "Started": the command
+starts a local Ray and stops it (its start is timed); "running": a local Ray started
+beforehand with `ray start --head` and joined with `--address auto`, as one kept for
+several sweeps. "cold": the clips not rendered yet (each run its own empty cache), as in
+a sweep over a fresh pool. Target: Ray's time at most {data['target_ratio']} of the serial.
 
-| cells | seeds each | clips | serial (s) | Ray (s) | ratio | target | identical |
+| cells | clips | serial (s) | Ray started (s) | ratio | Ray running (s) | ratio | identical |
 |---|---|---|---|---|---|---|---|
 """ + "\n".join(rows) + f"""
 
-A cell on cached clips costs {per_cell:.2f} s here. Ray's time beyond a perfect split of
-the serial time over the cores was {' and '.join(f'{o:.1f} s' for o in overhead)} on
-the cached runs: Ray's start and each worker's imports (torch and the policy for the
-learned controller). That fixed cost is why a sweep of 24 cells this cheap cannot gain
-from Ray on two cores; it is paid once per sweep, so the bigger the sweep, the nearer
-the ratio comes to 1 / cores.""")
+A cell on cached clips costs {per_cell:.2f} s here. A Ray the sweep starts took
+{' and '.join(f'{o:.1f} s' for o in overhead)} more than a perfect split of the serial
+time over {cores} cores on the cached runs: its start and each worker's imports (torch
+and the policy for the learned controller) are paid once per sweep, so a sweep of 24 such
+cheap cells cannot gain from it on {cores} cores, and the bigger the sweep the nearer the
+ratio comes to 1 / cores.""")
     r = data.get("render")
     if r:
         per_clip = r["local_s"] / r["clips"]

@@ -94,9 +94,9 @@ def add_backend(parser: argparse.ArgumentParser, task: str) -> None:
                              "on a local Ray or the cluster at --address (pip install "
                              "'imimic_gym[ray]')")
     parser.add_argument("--address", default=None, metavar="ADDR",
-                        help="--backend ray: an existing cluster ('auto', "
-                             "'ray://host:10001', 'host:6379'); default: start a local Ray "
-                             "on this machine's CPUs")
+                        help="--backend ray: a cluster ('auto', 'ray://host:10001', "
+                             "'host:6379'); default: the Ray that `ray start` runs on this "
+                             "machine, else a new local one on its CPUs")
 
 
 def check_backend(args: argparse.Namespace, command: str) -> None:
