@@ -106,7 +106,7 @@ import numpy as np
 
 from imimic_gym.estimators.compiled import best_ray, close_colour_mean, colour_match
 from imimic_gym.estimators.geometry import reach_square
-from imimic_gym.metrics import wrap_angle
+from imimic_gym.kinematics import wrap_angle
 
 __all__ = ["LinkAppearance"]
 

@@ -27,7 +27,7 @@ from imimic_gym.estimators.frames import WorkingFrames
 from imimic_gym.estimators.geometry import LinkTracker, within_range
 from imimic_gym.estimators.motion import PathEstimator, TorqueModel
 from imimic_gym.estimators.types import Estimate
-from imimic_gym.metrics import wrap_angle
+from imimic_gym.kinematics import wrap_angle
 
 __all__ = ["CamShiftEstimator", "MOG2Estimator"]
 

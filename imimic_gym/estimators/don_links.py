@@ -119,7 +119,7 @@ from imimic_gym.estimators.don import MotionMask
 from imimic_gym.estimators.geometry import pointing_range, within_range
 from imimic_gym.estimators.motion import PathEstimator, TorqueModel
 from imimic_gym.estimators.types import Estimate
-from imimic_gym.metrics import wrap_angle
+from imimic_gym.kinematics import wrap_angle
 
 __all__ = ["LinkedDON"]
 

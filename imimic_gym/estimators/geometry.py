@@ -16,7 +16,7 @@ import cv2
 import numpy as np
 
 from imimic_gym.estimators.compiled import pivot_solve, region_moments
-from imimic_gym.metrics import wrap_angle
+from imimic_gym.kinematics import wrap_angle
 
 __all__ = ["LinkTracker", "PivotEstimator", "component_lines", "pointing_range", "within_range"]
 

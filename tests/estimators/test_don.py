@@ -9,7 +9,7 @@ import pytest
 
 from imimic_gym.estimators.don import DON, PREDICT_FROM_TRUST, FrameShapeError, SlidingExtrema
 from imimic_gym.estimators.geometry import component_lines
-from imimic_gym.metrics import wrap_angle
+from imimic_gym.kinematics import wrap_angle
 
 H, W, FPS = 240, 320, 30.0
 PIVOT = np.array([160.0, 150.0])

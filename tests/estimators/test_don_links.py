@@ -9,7 +9,7 @@ import pytest
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
 from imimic_gym.estimators.don_links import LinkedDON, blob_ends, facing_point, segment_score
-from imimic_gym.metrics import wrap_angle
+from imimic_gym.kinematics import wrap_angle
 
 FPS = 30.0
 PIVOT = (100.0, 170.0)
