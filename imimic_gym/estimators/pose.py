@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from imimic_gym.estimators.geometry import within_range
+from imimic_gym.estimators.joint_range import within_range
 from imimic_gym.estimators.motion import PathEstimator, TorqueModel
 from imimic_gym.estimators.pose_model import BodyKeypoints, PoseModel
 from imimic_gym.estimators.types import Estimate
