@@ -28,13 +28,8 @@ class PivotEstimator:
     when two solves in a row agree within ``agree_px`` (a pivot made of a sweeping
     occluder's edges moves with the occluder, the real one stays put). After that it is
     re-solved every ``refine_every`` new lines: the pivot does not move, and a solve
-    over all pairs of 40 lines costs as much as the rest of a frame. Seeking every 3
-    lines rather than every 10 agrees a pivot sooner, and every frame before it is a
-    guess: on development clips settled RMSE 8.1 -> 5.9 deg on `exp3-forearm-none`, 15.1
-    -> 13.1 on `exp3-forearm-low`, 25.6 -> 22.6 on `exp3-forearm-high`, 0.59 -> 0.54 on
-    `exp2-servo`, at a cost of 22.3 -> 23.0 on `exp1-noisy-fast`
-    (`benchmarks/don_dev_seeds.py`). Requiring instead that a solve agree with one 10
-    lines older kept most of the delay (8.5 on `exp3-forearm-none` seeking every line).
+    over all pairs of 40 lines costs as much as the rest of a frame. Every frame
+    before a pivot is a guess, so it is sought often (`docs/decisions/don-pivot.md`).
 
     ``directions`` (middle, half-width), rad: where the link can point. A crossing only
     counts if both regions lie, seen from it, within that fan: the link's own regions
