@@ -4,8 +4,10 @@ parameters and rules without touching the held-out clips that `imimic eval` repo
 Per scenario: the mean settled RMSE (deg, after the first 0.5 s, as `imimic eval`), the
 mean eta, on clips with occluded frames (over 10% of the link hidden) the RMSE on those
 frames and eta on them and on the others, and the median distance (input px) from the
-pivot DON found to the true elbow (person scenarios). Any DON keyword can be set with
-``--param NAME=VALUE`` (repeatable); ``--pivot-given`` tells DON where the elbow is;
+pivot DON found to the true elbow (person scenarios). DON starts from the modality's
+preset (`config.don_preset`, as `imimic eval` builds it; ``--preset`` picks another) and
+any field of `DONConfig` can be set with ``--param NAME=VALUE`` (repeatable; nested ones
+as ``tracker.NAME`` or ``colour.NAME``); ``--pivot-given`` tells DON where the elbow is;
 ``--modality depth`` feeds it the clips' depth video instead of their colour.
 
 ``--compare FILE`` pairs this run clip by clip with an earlier ``--json FILE`` (same
@@ -30,7 +32,6 @@ default bound, so set ``IMIMIC_CACHE_MAX_GB`` (e.g. ``inf``) to keep them betwee
 from __future__ import annotations
 
 import argparse
-import ast
 import json
 import os
 from multiprocessing import Pool
@@ -45,6 +46,7 @@ from imimic_gym.bench import machine
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
 from imimic_gym.envs.imitate_video import MODALITIES, depth_to_frame
+from imimic_gym.estimators.config import don_preset, override, parse_setting
 from imimic_gym.estimators.don import DON
 from imimic_gym.evaluation import WARM_UP_S
 from imimic_gym.metrics import OCCLUDED, angle_rmse_deg
@@ -55,18 +57,18 @@ SCENARIOS = ("exp3-forearm-none", "exp3-forearm-low", "exp3-forearm-high", "exp2
 ELBOW = 1  # keypoint index of the elbow in a one-link person clip
 
 
-def run_clip(job: tuple[str, int, dict[str, Any], bool, str]) -> dict[str, Any]:
-    """Scores for one clip: DON with ``params`` on ``scenario`` seed ``seed``, fed its
-    colour or depth video (``modality``)."""
-    scenario, seed, params, pivot_given, modality = job
+def run_clip(job: tuple[str, int, dict[str, Any], bool, str, str]) -> dict[str, Any]:
+    """Scores for one clip: DON with the ``preset``'s config and ``params`` on
+    ``scenario`` seed ``seed``, fed its colour or depth video (``modality``)."""
+    scenario, seed, params, pivot_given, modality, preset = job
     spec = get_scenario(scenario, seed=seed)
     clip = load_clip(spec, progress=False)
     person = spec.demonstrator == "human"
     elbow = clip.truth.keypoints[:, ELBOW].mean(axis=0) if person else None
-    if pivot_given and person:
-        params = {**params, "pivot": tuple(float(v) for v in elbow)}
+    pivot = tuple(float(v) for v in elbow) if pivot_given and person else None
     don = DON(fps=clip.fps, reference_direction=spec.reference_direction,
-              joint_range=spec.joint_ranges[0], **params)
+              joint_range=spec.joint_ranges[0], pivot=pivot,
+              config=override(don_preset(preset), params))
     estimates = don.run(clip.frames if modality == "rgb" else depth_to_frame(clip.depth))
     angles = np.array([e.angles for e in estimates])
     trust = np.array([e.trust for e in estimates])
@@ -122,13 +124,10 @@ def compare(rows: list[dict[str, Any]], before: list[dict[str, Any]], scenario: 
 
 
 def parse_param(text: str) -> tuple[str, Any]:
-    name, _, value = text.partition("=")
-    if not name or not value:
-        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
     try:
-        return name, ast.literal_eval(value)
-    except (ValueError, SyntaxError):
-        return name, value
+        return parse_setting(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 def main() -> None:
@@ -139,7 +138,10 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, nargs=2, default=(0, 20), metavar=("FIRST", "END"),
                         help="clip seeds FIRST..END-1, below 1000 (default: 0 20)")
     parser.add_argument("--param", type=parse_param, action="append", default=[],
-                        help="a DON keyword, NAME=VALUE (repeatable)")
+                        help="a DONConfig field, NAME=VALUE (repeatable; tracker.NAME, "
+                             "colour.NAME for the nested ones)")
+    parser.add_argument("--preset", choices=MODALITIES, default=None,
+                        help="the preset the params apply to (default: the modality's)")
     parser.add_argument("--pivot-given", action="store_true",
                         help="tell DON the true elbow (person scenarios)")
     parser.add_argument("--modality", choices=MODALITIES, default="rgb",
@@ -154,7 +156,9 @@ def main() -> None:
     if end > FIRST_HELD_OUT_SEED:
         parser.error(f"development seeds stay below {FIRST_HELD_OUT_SEED} (held out)")
     params = dict(args.param)
-    jobs = [(s, seed, params, args.pivot_given, args.modality) for s in args.scenarios
+    preset = args.preset or args.modality
+    override(don_preset(preset), params)  # an unknown field fails here, not in a worker
+    jobs = [(s, seed, params, args.pivot_given, args.modality, preset) for s in args.scenarios
             for seed in range(first, end)]
     with Pool(args.processes) as pool:
         rows = pool.map(run_clip, jobs)
@@ -185,6 +189,7 @@ def main() -> None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps({"params": params, "pivot_given": args.pivot_given,
                                          "modality": args.modality,
+                                         "preset": preset,
                                          "seeds": [first, end], "machine": machine(),
                                          "results": results, "rows": rows,
                                          **({"compare": {"against": str(args.compare),

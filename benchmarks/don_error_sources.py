@@ -27,7 +27,8 @@ from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
 from imimic_gym.estimators.don import DON
 from imimic_gym.evaluation import WARM_UP_S
-from imimic_gym.metrics import OCCLUDED, wrap_angle
+from imimic_gym.kinematics import wrap_angle
+from imimic_gym.metrics import OCCLUDED
 
 STATES = ("before pivot", "hidden", "missing", "reading")
 

@@ -28,7 +28,8 @@ from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
 from imimic_gym.estimators.registry import build_estimator
 from imimic_gym.evaluation import WARM_UP_S, clip_context
-from imimic_gym.metrics import angle_rmse_deg, wrap_angle
+from imimic_gym.kinematics import wrap_angle
+from imimic_gym.metrics import angle_rmse_deg
 
 SCENARIOS = ("exp3-forearm-none", "exp3-forearm-low", "exp3-forearm-high")
 CHAINS = ("chain-2",)

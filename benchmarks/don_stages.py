@@ -33,19 +33,29 @@ import numpy as np
 from imimic_gym.bench import machine, per_frame_ms, run_raw_mog2
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
-from imimic_gym.estimators import appearance, compiled, don, frames, geometry, motion
+from imimic_gym.estimators import (
+    appearance,
+    compiled,
+    don,
+    frames,
+    link_tracker,
+    motion,
+    motion_mask,
+    pivot,
+    regions,
+)
 
 # (owner, attribute, stage name); nested stages (a pivot solve inside `lines`) are
 # reported on their own and inside their caller.
 STAGES = (
     (frames.WorkingFrames, "__call__", "layer 1: downscale (+ Gaussian, if set)"),
-    (don.MotionMask, "_moving_pixels", "layers 2-3: differences, union, l_1"),
+    (motion_mask.MotionMask, "_moving_pixels", "layers 2-3: differences, union, l_1"),
     (don.DON, "_slow_reading", "slow link: delta2 half and a whole window back"),
-    (don.SlidingExtrema, "push", "layer 2: sliding min/max update"),
-    (geometry.LinkTracker, "lines", "regression: lines of regions (+ pivot lookups)"),
-    (geometry, "component_lines", "  of which component_lines"),
-    (geometry.LinkTracker, "measure", "location s and visible length"),
-    (geometry.PivotEstimator, "_solve", "pivot solves (inside lines / keypoints)"),
+    (motion_mask.SlidingExtrema, "push", "layer 2: sliding min/max update"),
+    (link_tracker.LinkTracker, "lines", "regression: lines of regions (+ pivot lookups)"),
+    (regions, "component_lines", "  of which component_lines"),
+    (link_tracker.LinkTracker, "measure", "location s and visible length"),
+    (pivot.PivotEstimator, "_solve", "pivot solves (inside lines / keypoints)"),
     (don.DON, "trust_factor", "layer 4b: trust factor"),
     (motion.PathEstimator, "update", "layer 4a: path estimator update"),
     (motion.PathEstimator, "omega", "layer 4a: omega"),

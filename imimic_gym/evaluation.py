@@ -144,9 +144,10 @@ def evaluate_photos(annotations: str | Path, images: str | Path, estimator: str,
     """
     import cv2
 
-    from imimic_gym.clips.annotations import image_path, keypoints_to_angles, read_annotations
+    from imimic_gym.clips.annotations import image_path, read_annotations
     from imimic_gym.estimators.pose import human_joint_ranges
-    from imimic_gym.metrics import pcp, with_interval, wrap_angle
+    from imimic_gym.kinematics import keypoints_to_angles, wrap_angle
+    from imimic_gym.metrics import pcp, with_interval
 
     entry = get_estimator(estimator)
     if not entry.photos:

@@ -6,9 +6,11 @@ All angle inputs are radians, shaped (T,) or (T, n); outputs are in degrees or f
 from __future__ import annotations
 
 import math
-from typing import Any, overload
+from typing import Any
 
 import numpy as np
+
+from imimic_gym.kinematics import wrap_angle
 
 __all__ = [
     "OCCLUDED", "RECOVERED_DEG", "angle_rmse_deg", "bootstrap_interval", "jerk_rms",
@@ -17,22 +19,6 @@ __all__ = [
 
 OCCLUDED = 0.1  # a frame counts as occluded when over 10% of the moving links is hidden
 RECOVERED_DEG = 5.0  # tracking has recovered once every joint is back within this (deg)
-
-
-@overload
-def wrap_angle(angle: float) -> float: ...
-@overload
-def wrap_angle(angle: np.ndarray) -> np.ndarray: ...
-@overload
-def wrap_angle(angle: np.ndarray | float) -> np.ndarray | float: ...
-def wrap_angle(angle: np.ndarray | float) -> np.ndarray | float:
-    """Wrap radians into [-pi, pi), so 359 degrees of error counts as -1 degree.
-
-    A Python float gives a float, by the same arithmetic (Python's float modulo rounds
-    as numpy's does) at a tenth of the cost: estimators wrap one angle per frame."""
-    if type(angle) is float:
-        return (angle + math.pi) % math.tau - math.pi
-    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
 
 
 def angle_rmse_deg(estimate: np.ndarray, truth: np.ndarray) -> float:

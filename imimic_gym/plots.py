@@ -6,7 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from imimic_gym.metrics import OCCLUDED, wrap_angle
+from imimic_gym.kinematics import wrap_angle
+from imimic_gym.metrics import OCCLUDED
 from imimic_gym.rollout import Trajectory
 
 __all__ = ["plot_tracking"]

@@ -12,7 +12,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import imimic_gym
 from imimic_gym.envs.imitate_video import ImitateVideoEnv, SimulationUnstableError
-from imimic_gym.metrics import wrap_angle
+from imimic_gym.kinematics import wrap_angle
 
 FAST = {"n_frames": 30}
 

@@ -27,10 +27,11 @@ Videos. A COCO file can also annotate the frames of a video (one image per frame
   frames (held at the ends) and ``visible`` False; velocities and accelerations are
   central differences of the unwrapped angles.
 
-Angles follow one convention (DESIGN.md), `keypoints_to_angles`: for one link, q1 is the
-forearm's angle from the upper arm (the upper arm is the reference link even when it
-moves); for two, q1 is the upper arm's angle from ``reference_direction`` and q2 the
-elbow. Image directions are CCW from image right, with y up.
+Angles follow one convention (`imimic_gym.arms`), `kinematics.keypoints_to_angles`: for
+one link, q1 is the forearm's angle from the upper arm (the upper arm is the reference
+link even when it moves); for two, q1 is the upper arm's angle from
+``reference_direction`` and q2 the elbow. Image directions are CCW from image right, with
+y up.
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from imimic_gym.clips.types import ClipTruth
-from imimic_gym.metrics import wrap_angle
+from imimic_gym.kinematics import keypoints_to_angles, wrap_angle
 
 __all__ = [
     "ARM_KEYPOINTS",
@@ -249,33 +250,6 @@ def image_path(arm: ArmAnnotation, images_dir: str | Path) -> Path:
         raise FileNotFoundError(f"image {path} (image_id {arm.image_id}) not found; "
                                 "pass the folder that holds the annotated images as --images")
     return path
-
-
-def keypoints_to_angles(keypoints: np.ndarray, n_links: int,
-                        reference_direction: float = -math.pi / 2) -> np.ndarray:
-    """Joint angles (DESIGN.md convention) from shoulder, elbow, wrist pixels.
-
-    Args:
-        keypoints: (..., 3, 2) pixel (x, y) of shoulder, elbow, wrist (image y down).
-        n_links: 1 (the forearm: q1 = forearm from the upper arm, whose direction is
-            measured, not assumed) or 2 (q1 = upper arm from ``reference_direction``, the
-            torso's axis in the image, rad CCW from image right; q2 = forearm from the upper
-            arm). The torso's roll is not in the keypoints: with body sway it adds to q1's
-            error.
-    Returns:
-        (..., n_links) float64 rad in [-pi, pi), counter-clockwise positive.
-    """
-    k = np.asarray(keypoints, dtype=np.float64)
-    if k.shape[-2:] != (3, 2):
-        raise ValueError(f"keypoints must have shape (..., 3, 2), got {k.shape}")
-    delta = np.diff(k, axis=-2)
-    direction = np.arctan2(-delta[..., 1], delta[..., 0])  # CCW, image up
-    forearm = wrap_angle(direction[..., 1] - direction[..., 0])
-    if n_links == 1:
-        return forearm[..., None]
-    if n_links == 2:
-        return np.stack([wrap_angle(direction[..., 0] - reference_direction), forearm], axis=-1)
-    raise ValueError(f"shoulder, elbow and wrist give 1 or 2 joint angles, not {n_links}")
 
 
 def arm_keypoints_from_coco(path: str | Path, n_frames: int,

@@ -29,7 +29,7 @@ from imimic_gym.checkpoints import SHIPPED_CHECKPOINTS, CheckpointError, verify_
 from imimic_gym.controllers.scripted import SCRIPTED_CONTROLLERS
 from imimic_gym.envs.imitate_video import imitate_env
 from imimic_gym.estimators.types import estimate_fields
-from imimic_gym.metrics import wrap_angle
+from imimic_gym.kinematics import wrap_angle
 
 __all__ = ["DEFAULT_CHECKPOINT", "LearnedController", "ResidualTracking", "TrackerFeatures",
            "checkpoint_control", "load_policy"]

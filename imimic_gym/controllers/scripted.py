@@ -18,7 +18,7 @@ import numpy as np
 
 from imimic_gym.envs.imitate_video import imitate_env
 from imimic_gym.estimators.types import estimate_fields
-from imimic_gym.metrics import wrap_angle
+from imimic_gym.kinematics import wrap_angle
 
 __all__ = [
     "SCRIPTED_CONTROLLERS", "EstimateTarget", "OracleController", "PDController",

@@ -1,99 +1,16 @@
 """DON's appearance layer (ours, not the paper's): the link's direction in the current
-frame from its colour, once the motion layers have found it.
+frame from its colour, once the motion layers have found the pivot and the link.
 
-Why. Frame differences see a link only where it moves, as slivers at its leading and
-trailing edges. Where a distractor crosses near the joint its pixels merge with the
-slivers and tilt their axis; where the link turns under a degree a frame there are no
-slivers at all and DON holds a stale angle. On development clips those two cases were
-most of `exp3-forearm-none`'s error: median 1.7 deg, but the 5% of frames off by more than
-10 deg carried two thirds of the squared error. The link itself is in every frame, and it
-looks the same from frame to frame: one colour along its length.
-
-How.
-- DON vouches for a frame's reading when its motion layers read the link there (not a
-  hold, not a prediction) with eta at least VOUCH_TRUST.
-- Colour. From the first vouched reading whose direction crosses the link: the median
-  colour of the points along it that stand out most from the points 15 degrees to
-  either side (at least half of them must stand out). Then a slow running mean of the
-  matching pixels along this layer's reading wherever it agrees with a vouched one. A
-  colour, not a patch: it does not depend on where the pivot or the radius estimate sits
-  along the link. A colour that reads nothing, or something else than DON, in 5 vouched
-  frames running was learned from something else (a link first seen in part, blurred
-  into its background): it is learned again. (`LinkedDON` counts only the frames with
-  no reading: its fit is often off by more than this layer.) A first colour that
-  matches over MAX_SHARE of the square the link can reach is the wall's, from a ray run
-  on past the link's tip, and is not learned. Settled RMSE on development clips, without
-  -> with, seeds 0-79 (chosen; 0.03 and 0.05 also tried) / 80-159 (a check):
-  `exp3-forearm-high` 10.82 -> 10.15 deg / 12.26 -> 11.80, `exp3-forearm-low` 6.12 ->
-  5.82 / 6.93 -> 6.74, `exp3-forearm-none` 3.52 -> 3.24 / 2.91 -> 2.91,
-  `exp1-noisy-fast` 13.26 -> 12.99 / 11.56 -> 10.95, at most one clip worse per
-  scenario (the most, `-low` clip 141: 11.2 -> 16.0), `exp2-servo` and `default`
-  unchanged (`benchmarks/don_dev_seeds.py --compare`). `LinkedDON` learns any colour:
-  with the rule, `chain-3`'s first two joints went 3.48 -> 4.35 and 8.46 -> 9.18 deg
-  (`benchmarks/don_links_dev_seeds.py`).
-- Colour before a vouched reading. Behind a board, DON's eta seldom reaches VOUCH_TRUST:
-  on development clips 0-79 of `exp3-forearm-high` the colour came 15-80 frames after
-  the pivot, and a fifth of the squared error was in frames where DON had no reading of
-  the link and this layer no colour to look for it with. So a reading with eta from
-  FIRST_TRUST proposes a first colour (the same median, the same MAX_SHARE test), and
-  one that agrees (summed absolute RGB difference under SIGMA) with an earlier proposal
-  is learned: the median of the agreeing ones. One frame's low-trust reading can be of
-  an occluder's edge; two that find the same colour seldom are. Settled RMSE on
-  development clips, without -> with, seeds 0-79 (chosen among eta 0.4, 0.5, 0.6 and
-  two or three proposals) / 80-159 (a check): `exp3-forearm-high` 8.72 -> 8.00 deg /
-  10.39 -> 9.43 (95% interval of the change -1.68 to -0.35), `exp3-forearm-low` 5.16
-  -> 4.77 / 5.59 -> 5.30 (one clip 5.1 -> 34.0: two proposals of a grey, not skin),
-  `exp3-forearm-none` 3.03 -> 2.81 / 2.67 -> 2.57, `exp1-noisy-fast` 11.11 -> 11.22 /
-  9.14 -> 8.55, `exp2-servo` and `default` within 0.02. Letting a later vouched
-  reading's colour replace a proposed one where they differ kept that clip right but
-  lost half the gain on `-high` (-0.43 / -0.72). `LinkedDON` learns from vouched
-  readings only, as before.
-- Match of a pixel: exp(-(d / SIGMA)^2), d the sum over RGB of absolute differences from
-  the colour (under 0.1 counts as none). A ray's match is the mean along it, from 0.3 to
-  0.95 radii from the pivot.
-- Search. Rays every 2 degrees about DON's pivot, each at three sideways offsets (-2, 0,
-  +2 working px) so that a pivot a pixel or two off still lays a ray along the link.
-  Where DON vouches, within 12 degrees of its reading: a brighter match elsewhere (a
-  static object of the link's colour) cannot pull the reading away. Where it does not
-  (the link stalled, hidden, or among clutter that drags DON's trust down), within 24
-  degrees of where this layer's own last two readings put the link now; after a frame
-  without a reading, nowhere until DON vouches again, unless DON says it has lost the
-  link (below): then everywhere. Only where the joint can turn. A best match under 0.25,
-  or under 0.15 above the lower quartile's, is no reading.
-- A vouched jump. Where DON vouches for a reading more than 12 degrees (the vouched
-  search's reach) from where this layer's last reading and turn put the link now, the
-  layer searches its own track instead and learns nothing from the frame: DON has
-  jumped away from a link this layer still saw. That jump is most often a board's edge
-  read as the link while the forearm rests (development clip 68 of
-  `exp3-forearm-high`: from 23 to 77 degrees, held for 14 frames); the layer searched
-  only near a vouched reading, found nothing there, and the jump stood.
-  Settled RMSE on development clips, without -> with, seeds 0-79 (chosen among 6, 10,
-  15, 20, 25 and 30 degrees; 10 to 15 gave the same) / 80-159 (a check;
-  `benchmarks/don_dev_seeds.py --compare`): `exp3-forearm-low` 4.77 -> 4.37 deg / 5.30
-  -> 4.79 (95% interval of the change -1.17 to -0.13; 17 clips better, 1 worse),
-  `exp3-forearm-none` 2.81 -> 2.37 / 2.57 -> 2.41 (-0.28 to -0.07), `exp3-forearm-high`
-  8.00 -> 7.99 / 9.43 -> 9.39, `exp1-noisy-fast` 11.22 -> 11.18 / 8.55 -> 8.51,
-  `default` 0.94 -> 0.93 / 0.96 -> 0.93, `exp2-servo` unchanged. On clip 68 itself the
-  track search finds nothing (the board covers nearly half of the forearm by then), so
-  the jump still stands there. `LinkedDON`'s layers follow the rule too; its development
-  clips, settled RMSE per joint, without -> with (`benchmarks/don_links_dev_seeds.py`):
-  `chain-2` 2.14, 2.72 -> 2.21, 2.83 deg, `chain-3` 3.48, 8.46, 20.44 -> 3.06, 7.89,
-  20.35, `exp4-hand` 10.35, 22.86, 15.14 -> 10.34, 22.84, 15.20.
-- Everywhere once DON has lost the link (DON's ``search_when_lost``, on by default): a
-  forearm that comes out from behind the board and rests stays lost to the motion
-  layers until it moves (development clip 3 of `exp3-forearm-high`: held 16.6 degrees
-  off at frame 88 with the forearm coming into view; within 4.3 with the search). The
-  risk is a colour learned from something else: before MAX_SHARE, on clip 18 the colour
-  was half the board's brown and the search read the board's edge (settled RMSE 9.5 ->
-  27.7 deg). `DON` gives the figures.
-- Direction. The best ray is a 2-degree guess. The direction comes from the straight line
-  fitted to the matching pixels of a corridor 4 px either side of it (sideways offset
-  against distance, weighted by the match): a line's direction does not depend on where
-  the pivot is, and this reading is of the current frame, where DON's from a difference
-  image is half a frame old.
-
-What it cannot fix is a wrong pivot (the search's rays start there) or a link hidden for
-longer than its track lasts.
+In: the working frame ((h, w, 3) uint8), the pivot (2,) and radius (working px), and
+DON's reading of the frame (direction, rad, CCW with the image's y axis up; whether the
+motion layers read it; eta). Out: the link's direction (rad), or None where its colour
+is not seen. The colour is learned from readings DON vouches for (eta at least
+VOUCH_TRUST) or from proposals that agree; the search runs rays about the pivot near
+DON's reading (or this layer's own track), and the direction is a line fitted to the
+matching pixels of a corridor about the best ray. Frame differences see a link only
+where it moves; the link itself is in every frame, one colour along its length. Why
+each rule and value: `docs/decisions/don-appearance.md`. It cannot fix a wrong pivot
+(the rays start there) or a link hidden for longer than its track lasts.
 """
 
 from __future__ import annotations
@@ -105,8 +22,8 @@ import cv2
 import numpy as np
 
 from imimic_gym.estimators.compiled import best_ray, close_colour_mean, colour_match
-from imimic_gym.estimators.geometry import reach_square
-from imimic_gym.metrics import wrap_angle
+from imimic_gym.estimators.regions import reach_square
+from imimic_gym.kinematics import wrap_angle
 
 __all__ = ["LinkAppearance"]
 
@@ -152,7 +69,7 @@ class LinkAppearance:
     """Reads one link's direction from its colour, about a pivot found elsewhere.
 
     Directions are radians, counter-clockwise with the image's y axis up; coordinates
-    are working-resolution pixels (x right, y down), as in `geometry.py`.
+    are working-resolution pixels (x right, y down), as in `link_tracker.py`.
 
     Args:
         disagree: how far (rad) this layer's reading may lie from a vouched one before
@@ -309,10 +226,8 @@ class LinkAppearance:
         radius estimate too long, a link half behind a board) and its core be the wall
         beyond: the layer then reads the wall, agreeing with DON wherever the link lies
         against it, and once DON has lost the link (``lost``) it reads the wall wherever
-        the joint can point. On development clips of `exp3-forearm-high`, the first colours
-        learned from the link matched 0.3-1.7% of this square, those learned from
-        something else up to 34%. The share is of the reach, not of the frame: a close
-        view of the arm does not make the link's colour look like the wall's."""
+        the joint can point. The share is of the reach, not of the frame: a close view of
+        the arm does not make the link's colour look like the wall's."""
         if self.max_share is None:
             return False
         square = image[reach_square(np.array([px, py]), radius)]

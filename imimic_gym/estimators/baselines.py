@@ -1,7 +1,7 @@
 """Classical baselines behind DON's interface: the paper's comparison on equal terms.
 
 Each finds moving pixels its own way, then shares everything else with DON: the same
-working frames (`frames.py`), the same link geometry (`geometry.py`), the same path
+working frames (`frames.py`), the same link geometry (`link_tracker.py`), the same path
 estimator and torque model. Differences in accuracy are then differences in how the arm
 is found, which is what the paper compared.
 
@@ -24,10 +24,11 @@ import mujoco
 import numpy as np
 
 from imimic_gym.estimators.frames import WorkingFrames
-from imimic_gym.estimators.geometry import LinkTracker, within_range
+from imimic_gym.estimators.joint_range import within_range
+from imimic_gym.estimators.link_tracker import LinkTracker
 from imimic_gym.estimators.motion import PathEstimator, TorqueModel
 from imimic_gym.estimators.types import Estimate
-from imimic_gym.metrics import wrap_angle
+from imimic_gym.kinematics import wrap_angle
 
 __all__ = ["CamShiftEstimator", "MOG2Estimator"]
 

@@ -12,8 +12,8 @@ from typing import Any
 
 import numpy as np
 
-from imimic_gym.estimators.cnn import keypoints_to_angles
-from imimic_gym.metrics import pcp, wrap_angle
+from imimic_gym.kinematics import keypoints_to_angles, wrap_angle
+from imimic_gym.metrics import pcp
 
 __all__ = ["PAPER_PCP", "format_pcp_tables", "pcp_report"]
 

@@ -1,5 +1,5 @@
 """DON's per-frame inner loops, compiled with numba: the pivot solve and the regions'
-moments (`geometry.py`), layer 3 and the window's running extrema (`don.py`), and the
+moments (`regions.py`), layer 3 and the window's running extrema (`don.py`), and the
 appearance layer's colour match, choice of ray and colour-learning mean (`appearance.py`).
 
 DON spent most of a frame at 240x320 not in OpenCV's work but in the interpreter, issuing a
@@ -116,7 +116,7 @@ def _wrap(angle: float) -> float:
 
 @njit(cache=True)
 def _densest(xs: np.ndarray, ys: np.ndarray, cell: float) -> tuple[float, float]:
-    """`geometry.PivotEstimator`'s start of the mean shift: the centre of the 3x3 block
+    """`pivot.PivotEstimator`'s start of the mean shift: the centre of the 3x3 block
     of ``cell`` px cells holding the most points; among equal counts the block with the
     smallest key (column << 21 + row), as numpy's unique-then-argmax picks."""
     n = len(xs)
@@ -141,7 +141,7 @@ def _densest(xs: np.ndarray, ys: np.ndarray, cell: float) -> tuple[float, float]
 @njit(cache=True)
 def pivot_solve(lines: np.ndarray, reach_back: float, middle: float, half_width: float,
                 min_pairs: int) -> tuple[bool, float, float]:
-    """`geometry.PivotEstimator._solve` on ``lines`` ((n, 7) `component_lines` rows):
+    """`pivot.PivotEstimator._solve` on ``lines`` ((n, 7) `component_lines` rows):
     (found, x, y). ``reach_back`` NaN: no reach test; ``half_width`` NaN: no direction
     test. The pairs run in ``np.triu_indices`` order, as the numpy version's did."""
     n = len(lines)

@@ -15,7 +15,7 @@ import mujoco
 import numpy as np
 
 from imimic_gym.arms import joint_inertia
-from imimic_gym.metrics import wrap_angle
+from imimic_gym.kinematics import wrap_angle
 
 __all__ = ["PathEstimator", "TorqueModel"]
 

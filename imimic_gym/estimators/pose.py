@@ -1,6 +1,6 @@
 """The pose estimator (registry name ``pose``): a pretrained human-pose model finds a
 person's shoulder, elbow and wrist in every frame, and they become joint angles by the
-project's convention (`clips.annotations.keypoints_to_angles`: one link, the forearm
+project's convention (`kinematics.keypoints_to_angles`: one link, the forearm
 from the upper arm; two, the upper arm from the reference direction and the forearm
 from it), then angular velocity, acceleration and torque through the shared path
 estimator (paper layer 4a, `motion.PathEstimator`).
@@ -23,12 +23,11 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from imimic_gym.clips.annotations import keypoints_to_angles
-from imimic_gym.estimators.geometry import within_range
+from imimic_gym.estimators.joint_range import within_range
 from imimic_gym.estimators.motion import PathEstimator, TorqueModel
 from imimic_gym.estimators.pose_model import BodyKeypoints, PoseModel
 from imimic_gym.estimators.types import Estimate
-from imimic_gym.metrics import wrap_angle
+from imimic_gym.kinematics import keypoints_to_angles, wrap_angle
 
 __all__ = ["ELBOW_RANGE", "SHOULDER_RANGE", "ArmChooser", "ArmReading", "PoseEstimator",
            "continue_within", "human_joint_ranges"]

@@ -36,7 +36,7 @@ from imimic_gym.estimators.motion import PathEstimator, TorqueModel
 from imimic_gym.estimators.pose import ELBOW_RANGE, ArmReading, PoseEstimator, continue_within
 from imimic_gym.estimators.pose_model import PoseModel
 from imimic_gym.estimators.types import Estimate
-from imimic_gym.metrics import wrap_angle
+from imimic_gym.kinematics import wrap_angle
 
 __all__ = ["CROP", "PoseSeededDON"]
 

@@ -13,9 +13,16 @@ registry; adding an estimator is one `register` call::
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any
 
+from imimic_gym.estimators.config import (
+    DONConfig,
+    LinkedDONConfig,
+    don_preset,
+    linked_don_preset,
+    override,
+)
 from imimic_gym.estimators.types import Estimate, Estimator, EstimatorContext
 
 __all__ = [
@@ -133,32 +140,41 @@ def build_estimator(name: str, context: EstimatorContext, **params: Any) -> Esti
 
 
 # The built-in estimators --------------------------------------------------------------
-_DON_PARAMS = ("fps", "window", "gaussian", "threshold", "working_height", "pivot",
-               "trust_threshold", "min_area", "joint_range", "appearance", "search_when_lost",
-               "reseek", "reference_direction")
-_LINKED_PARAMS = ("window", "gaussian", "threshold", "working_height", "pivot", "band",
-                  "min_area", "appearance")
+# What DON and LinkedDON take: where the clip puts things, a whole config, or any field of
+# one (`config.DONConfig`, `config.LinkedDONConfig`), over the modality's preset.
+_DON_PARAMS = ("fps", "pivot", "joint_range", "reference_direction", "config",
+               *(f.name for f in fields(DONConfig)))
+_LINKED_PARAMS = ("pivot", "config", *(f.name for f in fields(LinkedDONConfig)))
+_DON_ANY_PARAMS = (*_DON_PARAMS, *(p for p in _LINKED_PARAMS if p not in _DON_PARAMS))
 
 
 def _don(appearance: bool) -> Callable[..., Estimator]:
     def build(context: EstimatorContext, **params: Any) -> Estimator:
-        """DON for one link (with the modality's smoothing), `LinkedDON` for several."""
+        """DON for one link, `LinkedDON` for several, each with the modality's preset."""
         common = {"fps": context.fps, "reference_direction": context.reference_direction,
                   "robot": context.robot}
+        allowed = _DON_PARAMS if context.n_links == 1 else _LINKED_PARAMS
+        unknown = sorted(set(params) - set(allowed))
+        if unknown:
+            raise ValueError(f"DON for {context.n_links} link{'s' if context.n_links > 1 else ''}"
+                             f" does not take {', '.join(unknown)}")
+        # A config given wins over the preset; don-paper's has no appearance layer.
+        given = params.pop("config", None)
         if context.n_links == 1:
-            from imimic_gym.estimators.don import DON, gaussian_for
+            from imimic_gym.estimators.don import DON
 
+            config = given or don_preset(context.modality)
+            if not appearance:
+                config = override(config, {"appearance": False})
             return DON(**{"joint_range": tuple(context.joint_ranges[0]), **common,
-                          "gaussian": gaussian_for(context.modality),
-                          "appearance": appearance, **params})
+                          "config": config, **params})
         from imimic_gym.estimators.don_links import LinkedDON
 
-        unknown = sorted(set(params) - set(_LINKED_PARAMS))
-        if unknown:
-            raise ValueError(f"DON for {context.n_links} links does not take "
-                             f"{', '.join(unknown)}")
+        linked = given or linked_don_preset(context.modality)
+        if not appearance:
+            linked = override(linked, {"appearance": False})
         return LinkedDON(context.link_parents, context.joint_ranges,
-                         **{**common, "appearance": appearance, **params})
+                         **{**common, "config": linked, **params})
 
     return build
 
@@ -224,11 +240,11 @@ def _oracle(context: EstimatorContext, **params: Any) -> Estimator:
 
 for _entry in (
     EstimatorEntry("don", "DON (frame differences, no labels; with its appearance layer)",
-                   _don(appearance=True), links=(1, 2, 3), params=_DON_PARAMS,
+                   _don(appearance=True), links=(1, 2, 3), params=_DON_ANY_PARAMS,
                    frames_needed=_don_frames),
     EstimatorEntry("don-paper", "DON with the paper's layers alone (no appearance layer)",
                    _don(appearance=False), links=(1, 2, 3),
-                   params=tuple(p for p in _DON_PARAMS if p != "appearance"),
+                   params=tuple(p for p in _DON_ANY_PARAMS if p != "appearance"),
                    frames_needed=_don_frames),
     EstimatorEntry("cnn", "CNN + refiner (shipped checkpoint)", _cnn, links=(1, 2),
                    demonstrators=("human",), params=("checkpoint", "refine"), photos=True),

@@ -8,7 +8,7 @@ import pytest
 
 from imimic_gym.estimators.appearance import LinkAppearance
 from imimic_gym.estimators.don import DON
-from imimic_gym.metrics import wrap_angle
+from imimic_gym.kinematics import wrap_angle
 
 H, W = 120, 160  # the working resolution: the layer takes working frames
 PIVOT = np.array([80.0, 75.0])

@@ -7,9 +7,11 @@ import cv2
 import numpy as np
 import pytest
 
-from imimic_gym.estimators.don import DON, PREDICT_FROM_TRUST, FrameShapeError, SlidingExtrema
-from imimic_gym.estimators.geometry import component_lines
-from imimic_gym.metrics import wrap_angle
+from imimic_gym.estimators.config import DONConfig
+from imimic_gym.estimators.don import DON, FrameShapeError
+from imimic_gym.estimators.motion_mask import SlidingExtrema
+from imimic_gym.estimators.regions import component_lines
+from imimic_gym.kinematics import wrap_angle
 
 H, W, FPS = 240, 320, 30.0
 PIVOT = np.array([160.0, 150.0])
@@ -452,7 +454,7 @@ def test_the_prediction_layer_carries_a_hidden_link_on() -> None:
 def test_the_prediction_layer_does_not_roll_on_from_a_reading_of_half_the_link() -> None:
     """As above, but for the five frames before it vanishes the bar shows only its inner
     half: DON reads it, last as it vanishes in frame 40, with eta near 0.5, under
-    PREDICT_FROM_TRUST. That velocity is not trusted, so once the bar is gone the
+    ``predict_from_trust``. That velocity is not trusted, so once the bar is gone the
     estimate holds, not predicted; with the whole bar seen up to the last frame (the test
     above) the same frames are predicted."""
     angles = [math.radians(30 + 3.0 * i) for i in range(56)]
@@ -461,7 +463,7 @@ def test_the_prediction_layer_does_not_roll_on_from_a_reading_of_half_the_link()
     for frame in frames[40:46]:
         frame[:] = 0
     estimates = DON(fps=FPS, pivot=tuple(PIVOT), trust_threshold=0.3).run(frames)
-    assert 0.3 < estimates[40].trust < PREDICT_FROM_TRUST  # the last frame it is read
+    assert 0.3 < estimates[40].trust < DONConfig().predict_from_trust  # the last frame it is read
     assert not any(estimates[i].predicted for i in range(41, 46))
     held = estimates[41].angles[0]
     assert all(estimates[i].angles[0] == held for i in range(42, 46))

@@ -8,13 +8,17 @@ import pytest
 
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
-from imimic_gym.estimators.don_links import LinkedDON, blob_ends, facing_point, segment_score
-from imimic_gym.metrics import wrap_angle
+from imimic_gym.estimators.chain_fit import blob_ends, facing_point, segment_score
+from imimic_gym.estimators.config import LinkedDONConfig
+from imimic_gym.estimators.don_links import LinkedDON
+from imimic_gym.kinematics import wrap_angle
 
 FPS = 30.0
 PIVOT = (100.0, 170.0)
 LENGTHS = (60.0, 50.0)
 RANGES = ((0.0, 1.6), (0.0, 1.6))
+
+FACING = LinkedDONConfig().facing
 
 
 def test_segment_score_is_the_tent_of_each_points_distance_to_its_nearest_segment() -> None:
@@ -181,12 +185,12 @@ def test_the_pivot_is_the_recurring_end_the_arm_reaches_out_from() -> None:
     ends = np.array(pairs, dtype=np.float64).reshape(-1, 2)
     down = (-math.pi / 2, math.radians(60))  # the root points down, +-60 degrees
     # From the tip the arm reaches up, where the root cannot point; from the pivot, down.
-    assert facing_point(ends, 3.0, 9.0, down).tolist() == pytest.approx([50.333, 50.333],
+    assert facing_point(ends, 3.0, 9.0, down, FACING).tolist() == pytest.approx([50.333, 50.333],
                                                                         abs=1e-3)
     up = (math.pi / 2, math.radians(60))  # were the root to point up, the tip would do
-    assert facing_point(ends, 3.0, 9.0, up).tolist() == pytest.approx([50.0, 80.0])
+    assert facing_point(ends, 3.0, 9.0, up, FACING).tolist() == pytest.approx([50.0, 80.0])
     right = (0.0, math.radians(30))  # from neither does the arm reach to the right
-    assert facing_point(ends, 3.0, 9.0, right) is None
+    assert facing_point(ends, 3.0, 9.0, right, FACING) is None
 
 
 def test_a_bad_tree_is_refused_by_name() -> None:

@@ -8,14 +8,13 @@ import cv2
 import numpy as np
 import pytest
 
-from imimic_gym.estimators.geometry import (
-    EDGE_MEMORY,
-    RIGID_FRAMES,
-    LinkTracker,
-    PivotEstimator,
-    component_lines,
-    within_range,
-)
+from imimic_gym.estimators.config import TrackerConfig
+from imimic_gym.estimators.joint_range import within_range
+from imimic_gym.estimators.link_tracker import LinkTracker
+from imimic_gym.estimators.pivot import PivotEstimator
+from imimic_gym.estimators.regions import component_lines
+
+EDGE_MEMORY, RIGID_FRAMES = TrackerConfig().edge_memory, TrackerConfig().rigid_frames
 
 
 def test_component_lines_give_known_centres_areas_and_axes_in_label_order() -> None:

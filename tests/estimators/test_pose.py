@@ -8,11 +8,11 @@ import pickle
 import numpy as np
 import pytest
 
-from imimic_gym.clips.annotations import keypoints_to_angles
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
 from imimic_gym.estimators.pose import ELBOW_RANGE, ArmChooser, PoseEstimator
 from imimic_gym.estimators.pose_model import KEYPOINTS, BodyKeypoints, PoseModel
+from imimic_gym.kinematics import keypoints_to_angles
 from imimic_gym.metrics import angle_rmse_deg
 
 

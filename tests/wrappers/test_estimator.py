@@ -7,7 +7,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import imimic_gym  # noqa: F401
 from imimic_gym.controllers import EstimateTarget, PDController
-from imimic_gym.estimators.don import DEPTH_GAUSSIAN
+from imimic_gym.estimators.config import don_preset
 from imimic_gym.estimators.types import Estimate
 from imimic_gym.metrics import angle_rmse_deg
 from imimic_gym.rollout import run_episode
@@ -63,11 +63,12 @@ def test_estimate_follows_the_servo_through_the_env(modality: str) -> None:
 
 def test_don_smooths_depth_video_and_not_colour() -> None:
     """Depth frames have hard, aliased steps: DON on them keeps the 7x7 Gaussian
-    (`DEPTH_GAUSSIAN`), on colour none; a ``gaussian`` given to the wrapper wins."""
+    (`don_preset("depth")`), on colour none; a ``gaussian`` given to the wrapper wins."""
     def smoothing(env: gym.Env) -> int:
         return env.estimator.motion.frames.gaussian
 
-    assert smoothing(DONObservation(servo_env(modality="depth"))) == DEPTH_GAUSSIAN == 7
+    depth = DONObservation(servo_env(modality="depth"))
+    assert smoothing(depth) == don_preset("depth").gaussian == 7
     assert smoothing(DONObservation(servo_env())) == 0
     assert smoothing(DONObservation(servo_env(modality="depth"), gaussian=0)) == 0
 
