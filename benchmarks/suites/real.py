@@ -45,7 +45,8 @@ from imimic_gym.estimators.pose import human_joint_ranges
 from imimic_gym.estimators.registry import build_estimator, get_estimator
 from imimic_gym.estimators.types import EstimatorContext
 from imimic_gym.evaluation import WARM_UP_S, clip_context, evaluate_photos, run_estimator
-from imimic_gym.metrics import with_interval, wrap_angle
+from imimic_gym.kinematics import wrap_angle
+from imimic_gym.metrics import with_interval
 
 REALDATA = Path(__file__).resolve().parents[3] / "shared" / "realdata"
 VIDEO_ESTIMATORS = ("pose", "pose-don", "don", "don-paper", "mog2", "camshift", "cnn")

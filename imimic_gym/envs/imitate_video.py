@@ -20,7 +20,7 @@ from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import ClipSpec, get_scenario
 from imimic_gym.clips.types import Clip
 from imimic_gym.estimators.types import Estimate, EstimatorContext
-from imimic_gym.metrics import wrap_angle
+from imimic_gym.kinematics import wrap_angle
 from imimic_gym.render import OffscreenRenderer
 
 __all__ = ["ImitateVideoEnv", "SimulationUnstableError", "imitate_env"]
