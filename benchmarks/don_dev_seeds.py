@@ -45,7 +45,7 @@ import numpy as np
 from imimic_gym.bench import machine
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
-from imimic_gym.envs.imitate_video import MODALITIES, depth_to_frame
+from imimic_gym.clips.types import MODALITIES, depth_to_frame
 from imimic_gym.estimators.config import don_preset, override, parse_setting
 from imimic_gym.estimators.don import DON
 from imimic_gym.evaluation import WARM_UP_S

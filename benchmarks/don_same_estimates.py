@@ -38,7 +38,7 @@ def capture(out: Path) -> None:
     from imimic_gym.arms import build_arm_model
     from imimic_gym.clips.cache import load_clip
     from imimic_gym.clips.scenarios import get_scenario
-    from imimic_gym.envs.imitate_video import depth_to_frame
+    from imimic_gym.clips.types import depth_to_frame
     from imimic_gym.estimators.don import DON
 
     arrays: dict[str, np.ndarray] = {}

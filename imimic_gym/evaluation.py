@@ -15,8 +15,7 @@ import numpy as np
 
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import ClipSpec, get_scenario
-from imimic_gym.clips.types import Clip
-from imimic_gym.envs.imitate_video import MODALITIES, depth_to_frame
+from imimic_gym.clips.types import MODALITIES, Clip, depth_to_frame
 from imimic_gym.estimators.registry import ESTIMATORS, build_estimator, get_estimator
 from imimic_gym.estimators.types import EstimatorContext
 from imimic_gym.metrics import OCCLUDED, angle_rmse_deg, lag_frames

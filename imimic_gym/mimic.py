@@ -36,7 +36,8 @@ from typing import Any, cast
 import gymnasium as gym
 import numpy as np
 
-from imimic_gym.clips.video import require_frames, write_video
+from imimic_gym.clips.video import require_frames
+from imimic_gym.clips.video_writer import write_video
 from imimic_gym.envs.imitate_video import imitate_env
 from imimic_gym.estimators.registry import get_estimator
 from imimic_gym.rollout import Observer, Step, Trajectory, episode

@@ -25,7 +25,7 @@ def servo_clip():
 @pytest.fixture(scope="session")
 def servo_mp4(servo_clip, tmp_path_factory: pytest.TempPathFactory):
     """``servo_clip`` recorded to an mp4 with OpenCV (mp4v, lossy)."""
-    from imimic_gym.clips.video import write_video
+    from imimic_gym.clips.video_writer import write_video
 
     return write_video(tmp_path_factory.mktemp("video") / "servo.mp4", servo_clip.frames,
                        servo_clip.fps)

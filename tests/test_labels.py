@@ -13,7 +13,7 @@ import pytest
 from imimic_gym.cli import main
 from imimic_gym.clips import get_scenario, load_clip
 from imimic_gym.clips.annotations import read_annotations
-from imimic_gym.clips.video import write_video
+from imimic_gym.clips.video_writer import write_video
 from imimic_gym.kinematics import keypoints_to_angles
 
 TRAIN = Path(__file__).resolve().parents[1] / "training" / "train_cnn.py"

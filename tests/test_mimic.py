@@ -13,7 +13,8 @@ import pytest
 from imimic_gym.cli import main
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
-from imimic_gym.clips.video import VideoFormatError, stream_video, write_video
+from imimic_gym.clips.video import VideoFormatError, stream_video
+from imimic_gym.clips.video_writer import write_video
 from imimic_gym.metrics import angle_rmse_deg
 from imimic_gym.mimic import run_mimic
 from imimic_gym.servo import ServoBridge
@@ -197,7 +198,7 @@ def test_the_command_drives_a_servo_with_its_range(servo_mp4, tmp_path) -> None:
 
 def test_mimic_runs_the_cnn_on_a_recorded_person(tmp_path) -> None:
     from imimic_gym.clips import get_scenario, load_clip
-    from imimic_gym.clips.video import write_video
+    from imimic_gym.clips.video_writer import write_video
 
     clip = load_clip(get_scenario("default", seed=5, n_frames=40), progress=False)
     write_video(tmp_path / "person.mp4", clip.frames, clip.fps)

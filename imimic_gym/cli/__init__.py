@@ -40,7 +40,7 @@ def _demo_estimator(requested: str | None, scenario: str) -> str:
 def cmd_demo(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
-    from imimic_gym.clips.video import write_video
+    from imimic_gym.clips.video_writer import write_video
     from imimic_gym.controllers import EstimateTarget, OracleController, PDController
     from imimic_gym.plots import plot_tracking
     from imimic_gym.rollout import run_episode
@@ -91,7 +91,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
 def cmd_clip(args: argparse.Namespace) -> int:
     from imimic_gym.clips.cache import load_clip
     from imimic_gym.clips.scenarios import get_scenario
-    from imimic_gym.clips.video import write_video
+    from imimic_gym.clips.video_writer import write_video
 
     overrides = {"seed": args.seed}
     if args.frames:

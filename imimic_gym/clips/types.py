@@ -7,7 +7,9 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Clip", "ClipTruth", "depth_from_mm", "depth_to_mm"]
+__all__ = ["MODALITIES", "Clip", "ClipTruth", "depth_from_mm", "depth_to_frame", "depth_to_mm"]
+
+MODALITIES = ("rgb", "depth")  # what a camera gives an estimator: colour, or depth as grey
 
 
 def depth_to_mm(depth: np.ndarray) -> np.ndarray:
@@ -19,6 +21,16 @@ def depth_from_mm(millimetres: np.ndarray) -> np.ndarray:
     """Whole millimetres (uint16) back to metres (float32). Rendered clips pass their depth
     through both functions, so a clip read from the cache equals a fresh one bit for bit."""
     return millimetres.astype(np.float32) / np.float32(1000.0)
+
+
+def depth_to_frame(depth: np.ndarray) -> np.ndarray:
+    """(T, H, W) metres to (T, H, W, 3) uint8, near = bright, stretched between the clip's
+    1st and 99th depth percentiles (one fixed mapping for the whole clip): the ``depth``
+    modality's frames."""
+    near, far = np.percentile(depth, [1, 99])
+    scaled = (far - depth) / max(far - near, 1e-6)
+    grey = np.clip(scaled * 255.0, 0, 255).astype(np.uint8)
+    return np.repeat(grey[..., None], 3, axis=-1)
 
 
 def _check(name: str, array: np.ndarray, shape: tuple[int | None, ...], dtype: Any) -> None:

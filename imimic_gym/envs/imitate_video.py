@@ -15,24 +15,23 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import EzPickle
 
-from imimic_gym.arms import CONTROL_MODES, MAX_LINKS, ArmSpec, Control, build_arm_model
+from imimic_gym.arms import ArmSpec, Control, build_arm_model
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import ClipSpec, get_scenario
-from imimic_gym.clips.types import Clip
+from imimic_gym.clips.types import Clip, depth_to_frame
+from imimic_gym.envs.arguments import check_arguments
 from imimic_gym.estimators.types import Estimate, EstimatorContext
 from imimic_gym.kinematics import wrap_angle
 from imimic_gym.render import OffscreenRenderer
 
 __all__ = ["ImitateVideoEnv", "SimulationUnstableError", "imitate_env"]
 
-MODALITIES = ("rgb", "depth")
 # The physics step is the largest that divides a frame evenly and stays under this (s):
 # 6 substeps of 5.6 ms per frame at 30 fps. It resolves the 12 Hz servo (omega dt = 0.42,
 # damping implicit) as well as 2 ms steps do; benchmarks/step_profile.py measures both.
 MAX_PHYSICS_STEP = 0.0056
 MAX_OBSERVED_SPEED = 200.0  # rad/s; the joint-velocity sensor saturates here
 CLIPS_IN_MEMORY = 4
-MAX_SIDE = 4096  # px: frames and renders (MuJoCo's offscreen buffer fails far past this)
 MIN_FPS, MAX_FPS = 1.0, 1000.0  # frames/s: one physics step a frame, 6 substeps at 30
 
 
@@ -56,15 +55,6 @@ def clip_arm(clip: Clip, control: Control) -> ArmSpec:
         changes["joint_ranges"] = tuple((float(lo), float(hi))
                                         for lo, hi in clip.meta["joint_ranges"])
     return replace(arm, **changes) if changes else arm
-
-
-def depth_to_frame(depth: np.ndarray) -> np.ndarray:
-    """(T, H, W) metres to (T, H, W, 3) uint8, near = bright, stretched between the clip's
-    1st and 99th depth percentiles (one fixed mapping for the whole clip)."""
-    near, far = np.percentile(depth, [1, 99])
-    scaled = (far - depth) / max(far - near, 1e-6)
-    grey = np.clip(scaled * 255.0, 0, 255).astype(np.uint8)
-    return np.repeat(grey[..., None], 3, axis=-1)
 
 
 class ImitateVideoEnv(gym.Env, EzPickle):
@@ -174,27 +164,12 @@ class ImitateVideoEnv(gym.Env, EzPickle):
             n_frames, tracking_weight, ctrl_cost_weight, reset_noise_scale, render_mode,
             clip, annotations, render_height,
         )
-        if control not in CONTROL_MODES:
-            raise ValueError(f"control must be one of {CONTROL_MODES}, got {control!r}")
-        if modality not in MODALITIES:
-            raise ValueError(f"modality must be one of {MODALITIES}, got {modality!r}")
-        if render_mode not in (None, *self.metadata["render_modes"]):
-            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        for name, value, low, high in (
-                ("width", width, 1, MAX_SIDE), ("height", height, 1, MAX_SIDE),
-                ("render_height", render_height, 1, MAX_SIDE),
-                ("n_frames", n_frames, 2, None), ("n_links", n_links, 1, MAX_LINKS)):
-            whole = isinstance(value, (int, np.integer)) and not isinstance(value, bool)
-            if value is not None and not (whole and low <= value <= (high or value)):
-                span = f"from {low} to {high}" if high else f"of at least {low}"
-                raise ValueError(f"{name} must be an integer {span}, got {value!r}")
+        check_arguments(control, modality, render_mode, self.metadata["render_modes"],
+                        width=width, height=height, render_height=render_height,
+                        n_frames=n_frames, n_links=n_links, tracking_weight=tracking_weight,
+                        ctrl_cost_weight=ctrl_cost_weight,
+                        reset_noise_scale=reset_noise_scale)
         n_links = None if n_links is None else int(n_links)
-        for name, weight in (("tracking_weight", tracking_weight),
-                             ("ctrl_cost_weight", ctrl_cost_weight),
-                             ("reset_noise_scale", reset_noise_scale)):
-            if not (isinstance(weight, (int, float, np.number)) and math.isfinite(weight)
-                    and weight >= 0):
-                raise ValueError(f"{name} must be a finite number >= 0, got {weight!r}")
         self.control, self.modality, self.render_mode = control, modality, render_mode
         self.render_height = render_height
         self.tracking_weight, self.ctrl_cost_weight = tracking_weight, ctrl_cost_weight

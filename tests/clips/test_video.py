@@ -19,8 +19,8 @@ from imimic_gym.clips.video import (
     load_video,
     require_frames,
     stream_video,
-    write_video,
 )
+from imimic_gym.clips.video_writer import write_video
 from imimic_gym.estimators.don import DON
 from imimic_gym.metrics import angle_rmse_deg
 
@@ -268,9 +268,9 @@ def test_videos_are_written_as_h264_that_browsers_and_opencv_play(tmp_path) -> N
 
 
 def test_without_imageio_ffmpeg_the_video_is_mp4v_with_a_warning(tmp_path, monkeypatch) -> None:
-    from imimic_gym.clips import video
+    from imimic_gym.clips import video_writer
 
-    monkeypatch.setattr(video, "_imageio_ffmpeg", lambda: None)
+    monkeypatch.setattr(video_writer, "_imageio_ffmpeg", lambda: None)
     frames = [np.zeros((24, 32, 3), np.uint8)] * 3
     with pytest.warns(UserWarning, match="browsers do not play"):
         path = write_video(tmp_path / "old.mp4", frames, 30.0)
