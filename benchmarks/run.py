@@ -30,6 +30,10 @@ SUITES = {
     "paper": "the paper's experiments 1-4 on the test pool against its statements",
     "scaleout": "Ray against one process on the same sweep and the same renders, and the "
                 "cost of 10,000 clips on N nodes",
+    "cnn": "the shipped CNN + refiner checkpoints on their test images, the CNN and DON "
+           "on the same test-pool clips, and the CNN's time per frame against DON's",
+    "fresh_clone": "what a fresh clone waits for, from an empty clip cache: imimic eval "
+                   "--paper and the CNN's default training run, against their limits",
     "real": "real people: the pose model, pose-seeded DON and every estimator on real "
             "photos and videos (../shared/realdata), and on rendered clips",
 }
@@ -59,7 +63,7 @@ def main() -> None:
                              "existing results/<suite>.json (e.g. speed again on a quiet "
                              "machine); default: all")
     parser.add_argument("--backend", default="local", choices=BACKENDS,
-                        help="suites that sweep clips (accuracy, tracking, paper): run the "
+                        help="suites that sweep clips (accuracy, tracking, paper, cnn): run the "
                              "cells here or as Ray tasks (default: %(default)s)")
     parser.add_argument("--address", default=None,
                         help="--backend ray: an existing cluster (default: a local Ray)")
@@ -83,7 +87,7 @@ def run_suite(name: str, args: argparse.Namespace) -> None:
         data = json.loads(data_path.read_text())
     else:
         data = suite.run(args)
-        if args.parts:
+        if args.parts and data_path.exists():
             data = {**json.loads(data_path.read_text()), **data}
         if args.quick:
             data_path, report_path = (data_path.with_suffix(".quick.json"),

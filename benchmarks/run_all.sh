@@ -7,7 +7,6 @@ cd "$(dirname "$0")/.."
 BIN=${BIN:-.venv/bin}
 mkdir -p benchmarks/results
 "$BIN/imimic" bench env --json benchmarks/results/env.json
-"$BIN/python" benchmarks/oracle_tracking.py --json benchmarks/results/oracle.json
 "$BIN/python" benchmarks/step_profile.py --json benchmarks/results/step_profile.json
 "$BIN/imimic" bench don --json benchmarks/results/don.json
 "$BIN/imimic" eval --scenario exp2-servo default exp3-forearm-none exp3-forearm-low \
@@ -21,34 +20,10 @@ mkdir -p benchmarks/results
     --estimator don --episodes 30 --first-seed 2000 --json benchmarks/results/eval_fresh.json
 "$BIN/python" benchmarks/don_known_pivot.py --json benchmarks/results/don_known_pivot.json
 "$BIN/python" benchmarks/don_error_sources.py --json benchmarks/results/don_error_sources.json
-# The runner's suites: the test pool (accuracy, tracking, paper), real people (parts that
-# need ../shared/realdata are skipped with a message without it), scale-out on Ray.
+# The runner's suites: the test pool (accuracy, tracking, paper), the shipped CNN (cnn),
+# real people (parts that need ../shared/realdata are skipped with a message without it),
+# scale-out on Ray, a fresh clone's waits (fresh_clone).
 "$BIN/python" benchmarks/run.py all --backend ray
-# CNN + refiner (issue 4): shipped checkpoints, learning curve, real photos, eval, speed.
-"$BIN/python" training/train_cnn.py --links 1 --out imimic_gym/data/checkpoints/cnn_arm1.pt \
-    --json benchmarks/results/cnn_train_arm1.json
-"$BIN/python" training/train_cnn.py --links 2 --out imimic_gym/data/checkpoints/cnn_arm2.pt \
-    --json benchmarks/results/cnn_train_arm2.json
-"$BIN/python" benchmarks/cnn_learning_curve.py --links 1 2 --threads 1 \
-    --json benchmarks/results/cnn_learning_curve.json
-if [ -d ../shared/realdata/coco_mini ]; then
-    "$BIN/python" benchmarks/cnn_real_photos.py --json benchmarks/results/cnn_real_photos.json
-fi
-"$BIN/imimic" eval --scenario exp3-forearm-none --estimator cnn --episodes 10 \
-    --json benchmarks/results/eval_cnn.json
-"$BIN/python" benchmarks/cnn_speed.py --json benchmarks/results/cnn_speed.json
-"$BIN/imimic" eval --scenario exp2-servo exp3-forearm-low --estimator don \
-    --controller position velocity torque learned \
-    --episodes 10 --num-envs 2 --out benchmarks/results/tracking_heldout \
-    --json benchmarks/results/tracking_heldout.json
-"$BIN/imimic" eval --scenario exp2-servo exp3-forearm-low --estimator don \
-    --controller position velocity learned --episodes 10 --first-seed 1010 \
-    --num-envs 2 --json benchmarks/results/tracking_fresh.json
-"$BIN/python" benchmarks/servo_error_sources.py --json benchmarks/results/servo_error_sources.json
-# benchmarks/tracker_candidates.py compares candidate policies on validation clips; it needs
-# the candidates' .pt files (training/train_tracker.py runs), so it is not rerun here.
-"$BIN/imimic" eval --paper --json benchmarks/results/paper_heldout.json --out benchmarks/results/paper_heldout
-"$BIN/python" benchmarks/eval_paper_time.py --json benchmarks/results/paper_time.json
 # DON's time by stage (issue 3 speed), and that the compiled loops (c3f9eeb) left every
 # estimate as it was at 0ebd481, the last revision without them.
 "$BIN/python" benchmarks/don_stages.py --json benchmarks/results/don_stages.json

@@ -10,14 +10,13 @@ import json
 from pathlib import Path
 from statistics import median
 
-from results_cnn import cnn_section
 from results_don_links import don_links_section
 from results_don_pivot import render as render_don_pivot
 from results_don_speed import render as render_don_speed
-from results_tracking import render as render_tracking
 
 HERE = Path(__file__).parent
 RESULTS = HERE / "results"
+DECISIONS = HERE.parent / "docs" / "decisions"
 
 
 def load(name: str):
@@ -31,7 +30,7 @@ def table(header: list[str], rows: list[list[str]]) -> str:
 
 
 def main() -> None:
-    env, step, oracle = load("env"), load("step_profile"), load("oracle")
+    env, step = load("env"), load("step_profile")
     don, evaluation, depth = load("don"), load("eval"), load("eval_depth")
     m = env["machine"]
     mean = {(r["scenario"], r["estimator"]): r for r in evaluation}
@@ -97,8 +96,10 @@ wherever there is one.
 controller with DON, on the test pool (30 fresh clips a scenario, seeds 40000-40029,
 which no choice has touched; `docs/decisions/evaluation-protocol.md`). The sections after
 them keep the record of how the code got here; their "held-out" figures come from seeds
-1000-1009 (1000-1019 for the CNN), evaluated after many rounds of choices and now
-**retired**: where they differ from the test pool, the test pool is right.
+1000-1009, evaluated after many rounds of choices and now
+**retired**: where they differ from the test pool, the test pool is right. The one-off
+experiments behind a choice are in its decision record, with their figures and the
+command that reruns them: {decision_records()}.
 {suite_section("accuracy")}{suite_section("tracking")}{suite_section("paper")}{suite_section("scaleout")}
 ## Environment speed (issue 2)
 
@@ -158,31 +159,6 @@ handing tiles between threads costs more than it saves), colour and depth read b
 one pass, keypoint visibility by a z-test against that depth instead of a segmentation
 pass, the occlusion pass only where the board can overlap the arm, and thin boxes instead
 of MuJoCo planes and textures for the walls and floor (planes are drawn as many lit quads).
-
-## Oracle tracking: the control loop's upper bound (issue 2)
-
-Command: `.venv/bin/python benchmarks/oracle_tracking.py --json benchmarks/results/oracle.json`
-
-`OracleController` (a `PDController` fed the true angles one frame ahead), full 150-frame
-clips, held-out clip seeds {oracle['seeds']}; mean RMSE and lag over the seeds, largest
-error over all of them. No vision: this is what a perfect estimator would allow.
-
-{table(["scenario", "control", "RMSE (deg)", "max error (deg)", "lag (frames)"],
-       [[f"`{r['scenario']}`", r["control"], f"{r['rmse_deg']:.2f}", f"{r['max_error_deg']:.2f}",
-         f"{r['lag_frames']:.1f}"] for r in oracle["rows"]])}
-
-Acceptance: oracle with position control on `exp2-servo` at most 2 degrees RMSE: met
-(also asserted by `tests/controllers/test_scripted.py` on other seeds).
-
-Reading the table:
-- The three `exp3-forearm-*` rows are identical on purpose: a clip's motion depends only
-  on its seed, so the occlusion levels share the same arm motion and differ only in what
-  the camera sees. Estimators are compared on equal motion.
-- Torque control is the weakest: `PDController` closes its loop once per video frame
-  (30 Hz), so its bandwidth stays at 4 Hz, and it has no acceleration feed-forward (the
-  computed-torque controller with an estimator's alpha is issue 5's job).
-- `exp1-noisy-fast` (the paper's failed experiment) is hard even for the oracle with
-  velocity or torque control: its movements last 0.15-0.35 s.
 
 ## DON and the baselines (issue 3, in progress)
 
@@ -307,8 +283,8 @@ Against issue 3's acceptance:
 - 2-link chain and `exp4-hand`: DON for several links, in its own section below.
 """]
     out.append(real_footage_section())
-    out.append(cnn_section())
-    out.append(render_tracking(load, table))
+    out.append(suite_section("cnn"))
+    out.append(suite_section("fresh_clone"))
     out.append(don_links_section())
     (HERE / "RESULTS.md").write_text("".join(out))
 
@@ -345,6 +321,12 @@ def suite_section(name: str) -> str:
     (results/NAME.md from results/NAME.json); nothing before the suite has run."""
     path = RESULTS / f"{name}.md"
     return "\n" + path.read_text() if path.exists() else ""
+
+
+def decision_records() -> str:
+    """The records in docs/decisions/, as links from this file."""
+    return ", ".join(f"[`{path.stem}`](../docs/decisions/{path.name})"
+                     for path in sorted(DECISIONS.glob("*.md")))
 
 
 def real_footage_section() -> str:
