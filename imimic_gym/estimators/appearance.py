@@ -5,7 +5,7 @@ In: the working frame ((h, w, 3) uint8), the pivot (2,) and radius (working px),
 DON's reading of the frame (direction, rad, CCW with the image's y axis up; whether the
 motion layers read it; eta). Out: the link's direction (rad), or None where its colour
 is not seen. The colour is learned from readings DON vouches for (eta at least
-VOUCH_TRUST) or from proposals that agree; the search runs rays about the pivot near
+``vouch_trust``) or from proposals that agree; the search runs rays about the pivot near
 DON's reading (or this layer's own track), and the direction is a line fitted to the
 matching pixels of a corridor about the best ray. Frame differences see a link only
 where it moves; the link itself is in every frame, one colour along its length. Why
@@ -15,47 +15,35 @@ each rule and value: `docs/decisions/don-appearance.md`. It cannot fix a wrong p
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import math
 from collections import deque
+from typing import Any
 
 import cv2
 import numpy as np
 
 from imimic_gym.estimators.compiled import best_ray, close_colour_mean, colour_match
+from imimic_gym.estimators.config import AppearanceConfig
 from imimic_gym.estimators.regions import reach_square
 from imimic_gym.kinematics import wrap_angle
 
-__all__ = ["LinkAppearance"]
-
-STEP = math.radians(2.0)  # the search's spacing of ray directions
-TURN = 180  # grid steps in a turn
-VOUCH_TRUST = 0.8  # DON's eta from which its reading of the link vouches for it
-FIRST_TRUST = 0.5  # DON's eta from which its reading proposes a first colour
-FIRST_AGREE = 2  # proposals agreeing within SIGMA that make the first colour
-PROPOSALS = 10  # the proposals remembered, newest last
-NEAR = 6  # where DON vouches, how far (grid steps: 12 deg) from its reading to look
-TRACK = 12  # where not, how far (grid steps) from where this layer's track puts the link
-AGREE = math.radians(3.0)  # a reading this close to a vouched one teaches the colour
-RELEARN = 5  # vouched frames running that this layer reads nothing or more than
-DISAGREE = math.radians(6.0)  # this far off make the colour learned anew
-OFFSETS = np.array([-2.0, 0.0, 2.0])  # sideways ray offsets, working px
-FRACTIONS = np.linspace(0.3, 0.95, 14)  # where along the link a ray is sampled, radii
-SIGMA = 35.0  # summed absolute RGB difference (grey levels) at which a match is exp(-1)
-MIN_MATCH, MIN_CONTRAST = 0.25, 0.15
-# A first colour matching (within SIGMA) more than this share of the square the link can
-# reach (1.6 radii about the pivot) is the background's: a link is a bar from the pivot,
-# its width a quarter of its length at most (a forearm seen close), about 2.5% of it.
-MAX_SHARE = 0.1
-LEARNING_RATE = 0.1
-CORRIDOR_PX, CORRIDOR_STEP = 4.0, 0.5  # the line fit's half-width and sample spacing, px
-# Match (0-255) per summed absolute difference (0-255, saturated); under 0.1 is none.
-_MATCH = 255 * np.exp(-(np.arange(256) / SIGMA) ** 2)
-_MATCH = np.where(_MATCH < 25.5, 0, np.round(_MATCH)).astype(np.uint8)
+__all__ = ["LinkAppearance", "match_table"]
 
 
-def _match(colours: np.ndarray, colour: tuple[float, ...]) -> np.ndarray:
+
+@functools.lru_cache(maxsize=8)
+def match_table(sigma: float) -> np.ndarray:
+    """(256,) uint8: the match (0-255) of a summed absolute RGB difference (0-255,
+    saturated), exp(-(d / sigma)^2), and none under 0.1."""
+    table = 255 * np.exp(-(np.arange(256) / sigma) ** 2)
+    return np.where(table < 25.5, 0, np.round(table)).astype(np.uint8)
+
+
+def _match(colours: np.ndarray, colour: tuple[float, ...], table: np.ndarray) -> np.ndarray:
     """Per-pixel match (0-255 uint8, (h, w)) of (h, w, 3) uint8 colours with ``colour``."""
-    return colour_match(colours, _rounded(colour), _MATCH)
+    return colour_match(colours, _rounded(colour), table)
 
 
 def _rounded(colour: tuple[float, ...]) -> tuple[int, int, int]:
@@ -72,19 +60,30 @@ class LinkAppearance:
     are working-resolution pixels (x right, y down), as in `link_tracker.py`.
 
     Args:
-        disagree: how far (rad) this layer's reading may lie from a vouched one before
-            the frame counts against the colour (RELEARN such frames running and it is
-            learned anew); ``math.inf``: only vouched frames without a reading count,
-            for a caller whose vouched readings are often off by more (`LinkedDON`).
-        max_share: a first colour matching more than this share of the square the link
-            can reach is not learned (`_background_colour`); None: any colour is.
-        first_trust: from this eta (below VOUCH_TRUST) a reading proposes a first colour,
-            learned once FIRST_AGREE proposals agree; None: only vouched readings teach it.
+        config: every setting (`AppearanceConfig`): ``disagree_deg`` is how far this
+            layer's reading may lie from a vouched one before the frame counts against the
+            colour (``relearn`` such frames running and it is learned anew; ``math.inf``:
+            only vouched frames without a reading count, for a caller whose vouched
+            readings are often off by more, `LinkedDON`); a first colour matching more
+            than ``max_share`` of the square the link can reach is not learned (None: any
+            is); from ``first_trust`` (below ``vouch_trust``) a reading proposes a first
+            colour, learned once ``first_agree`` proposals agree (None: only vouched
+            readings teach it).
+        **fields: `AppearanceConfig` fields replaced (``LinkAppearance(max_share=None)``).
     """
 
-    def __init__(self, disagree: float = DISAGREE, max_share: float | None = MAX_SHARE,
-                 first_trust: float | None = FIRST_TRUST) -> None:
-        self.disagree, self.max_share, self.first_trust = disagree, max_share, first_trust
+    def __init__(self, config: AppearanceConfig | None = None, **fields: Any) -> None:
+        config = dataclasses.replace(config or AppearanceConfig(), **fields)
+        self.config = config
+        self.step = math.radians(config.step_deg)
+        self.turns = round(360.0 / config.step_deg)  # grid steps in a turn
+        self.disagree, self.agree = math.radians(config.disagree_deg), math.radians(
+            config.agree_deg)
+        self.max_share, self.first_trust = config.max_share, config.first_trust
+        self.offsets = np.array(config.offsets)
+        start, stop, count = config.fractions
+        self.fractions = np.linspace(start, stop, count)
+        self.table = match_table(config.sigma)
         self.reset()
 
     def reset(self) -> None:
@@ -93,7 +92,7 @@ class LinkAppearance:
         self.turn = 0.0  # how far the link turned between the last two readings, rad
         self.disagreed = 0  # vouched frames running that this layer read otherwise or not
         # First colours proposed by readings DON trusts less than it vouches (RGB, 0).
-        self.proposals: deque[tuple[float, ...]] = deque(maxlen=PROPOSALS)
+        self.proposals: deque[tuple[float, ...]] = deque(maxlen=self.config.proposals)
         self._rays: tuple[np.ndarray, np.ndarray] | None = None  # sample maps, cached
         self._rays_for: tuple[float, float, float] | None = None  # pivot x, y, radius
 
@@ -114,11 +113,11 @@ class LinkAppearance:
             lost: the caller has lost the link (`DON.hidden`): without a track of its own,
                 this layer searches everywhere the link can point, not nowhere.
 
-        A colour that fails RELEARN vouched frames running (no reading, or one more than
+        A colour that fails ``relearn`` vouched frames running (no reading, or one more than
         ``disagree`` from DON's) was learned from something else: it is dropped and learned
         again from the next vouched frame.
         """
-        vouched = read and trust >= VOUCH_TRUST
+        vouched = read and trust >= self.config.vouch_trust
         if self.colour is None:  # no reading in this frame, even if it teaches the colour
             angle = None
             if vouched or (read and self.first_trust is not None
@@ -130,7 +129,7 @@ class LinkAppearance:
         if vouched and self.colour is not None:
             agrees = angle is not None and abs(wrap_angle(angle - prior)) < self.disagree
             self.disagreed = 0 if agrees else self.disagreed + 1
-            if self.disagreed >= RELEARN:
+            if self.disagreed >= self.config.relearn:
                 self.colour, self.last, self.disagreed = None, None, 0
         return angle
 
@@ -142,85 +141,87 @@ class LinkAppearance:
         px, py = float(pivot[0]), float(pivot[1])
         if vouched and self._jumped(prior):
             vouched = False  # search along this layer's track; learn nothing from the frame
-        first, end = self._search(round(prior / STEP), vouched, directions, lost)
+        first, end = self._search(round(prior / self.step), vouched, directions, lost)
         if end <= first:
             self.last = None
             return None
         # Rays first .. end - 1 (grid steps, unwrapped): a slice of the maps' rows, which
         # run twice round the circle so that no search wraps.
         map1, map2 = self._ray_maps(px, py, radius)
-        rows = slice(len(OFFSETS) * (first % TURN), len(OFFSETS) * (first % TURN + end - first))
+        sides, turn = len(self.offsets), self.turns
+        rows = slice(sides * (first % turn), sides * (first % turn + end - first))
         # The background's match is the rays' lower quartile (a link near the pivot
         # crosses several neighbouring rays).
         best, side = best_ray(cv2.remap(image, map1[rows], map2[rows], cv2.INTER_LINEAR),
-                              _rounded(colour), _MATCH, len(OFFSETS), 255 * MIN_MATCH,
-                              255 * MIN_CONTRAST)
+                              _rounded(colour), self.table, sides,
+                              255 * self.config.min_match, 255 * self.config.min_contrast)
         if best < 0:
             self.last = None
             return None
-        angle, offset = (first + best) * STEP, float(OFFSETS[side])
+        angle, offset = (first + best) * self.step, float(self.offsets[side])
         angle, patch, weight = self._fit_line(image, colour, px, py, radius, angle, offset)
         if directions is not None and abs(wrap_angle(angle - directions[0])) > directions[1]:
             self.last = None  # the fit left where the link can point: not the link
             return None
         self.turn = 0.0 if self.last is None else float(wrap_angle(angle - self.last))
         self.last = angle
-        if vouched and abs(wrap_angle(angle - prior)) < AGREE:
+        if vouched and abs(wrap_angle(angle - prior)) < self.agree:
             self._learn(colour, patch, weight)
         return angle
 
     def _jumped(self, prior: float) -> bool:
         """Whether DON's reading ``prior`` (rad) lies farther from where this layer's last
         reading and turn put the link now than the search about a vouched reading reaches
-        (NEAR): DON has jumped away from a link this layer saw in the last frame."""
+        (``near``): DON has jumped away from a link this layer saw in the last frame."""
         return (self.last is not None
-                and abs(wrap_angle(prior - self.last - self.turn)) > NEAR * STEP)
+                and abs(wrap_angle(prior - self.last - self.turn))
+                > self.config.near * self.step)
 
     def _learn_first(self, image: np.ndarray, pivot: np.ndarray, radius: float,
                      prior: float, vouched: bool) -> None:
         """The first colour from DON's reading ``prior``: learned at once where it is
         ``vouched``; else proposed, and learned (the median of the agreeing ones) once
-        FIRST_AGREE proposals agree within SIGMA."""
+        ``first_agree`` proposals agree within ``sigma``."""
         px, py = float(pivot[0]), float(pivot[1])
         colour = self._first_colour(image, px, py, radius, prior)
         if colour is None or self._background_colour(image, px, py, radius, colour):
             return
         if not vouched:
             agreeing = [c for c in self.proposals
-                        if sum(abs(a - b) for a, b in zip(c[:3], colour[:3], strict=True)) < SIGMA]
+                        if sum(abs(a - b) for a, b in zip(c[:3], colour[:3], strict=True))
+                        < self.config.sigma]
             self.proposals.append(colour)
-            if len(agreeing) + 1 < FIRST_AGREE:
+            if len(agreeing) + 1 < self.config.first_agree:
                 return
             colour = (*np.median([c[:3] for c in (*agreeing, colour)], axis=0).tolist(), 0.0)
         self.colour = colour
         self.proposals.clear()
 
-    @staticmethod
-    def _first_colour(image: np.ndarray, px: float, py: float, radius: float,
+    def _first_colour(self, image: np.ndarray, px: float, py: float, radius: float,
                       angle: float) -> tuple[float, ...] | None:
         """The link's colour from a vouched reading ``angle``: of the points along it
-        that differ (summed absolute RGB difference over 2 SIGMA) from the points at the
+        that differ (summed absolute RGB difference over 2 ``sigma``) from the points at the
         same distances 15 degrees to either side (the background beside the link), the
         median colour of the half that differ most (a thin link's core, not its edges
         blurred into the background); None unless at least half of the points differ (the
         ray may have missed a thin link, and a ray across the background would learn the
         wall)."""
-        along = radius * FRACTIONS[None, :]
+        along = radius * self.fractions[None, :]
         angles = angle + np.radians([0.0, -15.0, 15.0])[:, None]
         xs = (px + np.cos(angles) * along).astype(np.float32)
         ys = (py - np.sin(angles) * along).astype(np.float32)
         link, *beside = cv2.remap(image, xs, ys, cv2.INTER_LINEAR).astype(np.int16)
         difference = np.min([np.abs(link - background).sum(axis=1) for background in beside],
                             axis=0)
-        distinct = difference > 2 * SIGMA
-        if np.count_nonzero(distinct) < len(FRACTIONS) // 2:
+        distinct = difference > 2 * self.config.sigma
+        if np.count_nonzero(distinct) < len(self.fractions) // 2:
             return None
         core = difference >= np.median(difference[distinct])
         return (*np.median(link[core], axis=0).tolist(), 0.0)
 
     def _background_colour(self, image: np.ndarray, px: float, py: float, radius: float,
                            colour: tuple[float, ...]) -> bool:
-        """Whether ``colour`` matches (within SIGMA) more than ``max_share`` of the square
+        """Whether ``colour`` matches (within ``sigma``) more than ``max_share`` of the square
         about the pivot (px, py) that the link can reach, 1.6 ``radius`` either side (working
         px): the wall's, not the link's. A vouched ray can run past the link's tip (a
         radius estimate too long, a link half behind a board) and its core be the wall
@@ -234,46 +235,48 @@ class LinkAppearance:
         if square.size == 0:
             return False
         matching = cv2.countNonZero(cv2.compare(  # type: ignore[call-overload]
-            _match(square, colour), 94, cv2.CMP_GT))
+            _match(square, colour, self.table), 94, cv2.CMP_GT))
         return matching > self.max_share * square.shape[0] * square.shape[1]
 
     def _search(self, prior: int, vouched: bool, directions: tuple[float, float] | None,
                 lost: bool) -> tuple[int, int]:
         """The rays to try, first .. end - 1, in grid steps counted from direction 0 and
-        unwrapped to lie near ``prior`` (DON's direction, in grid steps): within NEAR of
-        it where DON ``vouched`` for it; else within TRACK of where the last reading's
+        unwrapped to lie near ``prior`` (DON's direction, in grid steps): within ``near`` of
+        it where DON ``vouched`` for it; else within ``track`` of where the last reading's
         direction and turn rate put the link now; after a frame without a reading, all
         round where DON has ``lost`` the link, else none. Only where the link can point."""
+        near, track, turn, step = self.config.near, self.config.track, self.turns, self.step
         if vouched:
-            first, end = prior - NEAR, prior + NEAR + 1
+            first, end = prior - near, prior + near + 1
         elif self.last is not None:
-            ahead = round((self.last + self.turn) / STEP)
-            ahead = prior + (ahead - prior + TURN // 2) % TURN - TURN // 2
-            first, end = ahead - TRACK, ahead + TRACK + 1
+            ahead = round((self.last + self.turn) / step)
+            ahead = prior + (ahead - prior + turn // 2) % turn - turn // 2
+            first, end = ahead - track, ahead + track + 1
         elif lost:
-            first, end = prior - TURN // 2, prior + TURN // 2
+            first, end = prior - turn // 2, prior + turn // 2
         else:
             return 0, 0
         if directions is not None and directions[1] < math.pi:
-            middle, half_width = directions[0] / STEP, directions[1] / STEP
-            middle = prior + (middle - prior + TURN / 2) % TURN - TURN / 2
+            middle, half_width = directions[0] / step, directions[1] / step
+            middle = prior + (middle - prior + turn / 2) % turn - turn / 2
             first = max(first, math.ceil(middle - half_width))
             end = min(end, math.floor(middle + half_width) + 1)
-        return first, min(end, first + TURN)
+        return first, min(end, first + turn)
 
     def _ray_maps(self, px: float, py: float, radius: float) -> tuple[np.ndarray, np.ndarray]:
-        """cv2.remap maps (fixed point, (2 TURN len(OFFSETS), len(FRACTIONS)) rows and
-        columns) of every ray twice round: row 3k + j is direction k STEP shifted sideways
-        by OFFSETS[j]. Kept while the pivot stays within 0.3 px and the radius within 3%."""
+        """cv2.remap maps (fixed point, (2 turns x offsets, fractions) rows and
+        columns) of every ray twice round: row 3k + j is direction k steps shifted sideways
+        by the j-th offset. Kept while the pivot stays within 0.3 px and the radius within 3%."""
         kept, rays = self._rays_for, self._rays
         if (kept is None or rays is None or abs(kept[0] - px) > 0.3 or abs(kept[1] - py) > 0.3
                 or abs(kept[2] - radius) > 0.03 * kept[2]):
-            grid = np.arange(2 * TURN) * STEP
+            grid = np.arange(2 * self.turns) * self.step
             cos, sin = np.cos(grid)[:, None, None], np.sin(grid)[:, None, None]
-            along, side = radius * FRACTIONS[None, None, :], OFFSETS[None, :, None]
+            along = radius * self.fractions[None, None, :]
+            side = self.offsets[None, :, None]
             # Sideways is the ray's direction turned clockwise on screen: (-sin, -cos).
-            xs = (px + cos * along - sin * side).reshape(-1, len(FRACTIONS))
-            ys = (py - sin * along - cos * side).reshape(-1, len(FRACTIONS))
+            xs = (px + cos * along - sin * side).reshape(-1, len(self.fractions))
+            ys = (py - sin * along - cos * side).reshape(-1, len(self.fractions))
             rays = self._rays = cv2.convertMaps(xs.astype(np.float32), ys.astype(np.float32),
                                                 cv2.CV_16SC2)
             self._rays_for = (px, py, radius)
@@ -287,29 +290,31 @@ class LinkAppearance:
         distance (the image moments of the match with ``colour`` in the corridor's
         frame); ``angle`` if the corridor holds too little of the link. Also returns the
         corridor's pixels ((rows, cols, 3) uint8) and their match (0-255)."""
-        first, cols = 0.2 * radius, max(2, int(0.8 * radius / CORRIDOR_STEP))
-        rows = 2 * round(CORRIDOR_PX / CORRIDOR_STEP) + 1
-        side0 = offset - CORRIDOR_PX
-        cos, sin, s = math.cos(angle), math.sin(angle), CORRIDOR_STEP
+        corridor, s = self.config.corridor_px, self.config.corridor_step
+        first, cols = 0.2 * radius, max(2, int(0.8 * radius / s))
+        rows = 2 * round(corridor / s) + 1
+        side0 = offset - corridor
+        cos, sin = math.cos(angle), math.sin(angle)
         # Corridor pixel (u, v) is at distance first + u s along the ray, side0 + v s aside.
         to_image = np.array([[cos * s, -sin * s, px + cos * first - sin * side0],
                              [-sin * s, -cos * s, py - sin * first - cos * side0]])
         patch = cv2.warpAffine(image, to_image, (cols, rows),
                                flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP)
-        weight = _match(patch, colour)
+        weight = _match(patch, colour, self.table)
         moments = cv2.moments(weight)
         if moments["m00"] > 3 * 255 and moments["mu20"] > 1e-6:
             # A line turned by a small delta from the ray lies sideways at delta * distance:
-            # the slope of offset against distance (rows per column, both CORRIDOR_STEP).
+            # the slope of offset against distance (rows per column, both ``corridor_step``).
             angle += math.atan(moments["mu11"] / moments["mu20"])
         return angle, patch, weight
 
     def _learn(self, colour: tuple[float, ...], patch: np.ndarray, weight: np.ndarray
                ) -> None:
         """Move the colour (``colour``, as it stands) toward the mean of the corridor's
-        pixels that match it within SIGMA (``patch`` (rows, cols, 3) uint8, ``weight``
+        pixels that match it within ``sigma`` (``patch`` (rows, cols, 3) uint8, ``weight``
         their match, 0-255)."""
         count, *mean = close_colour_mean(patch, weight, 94)  # 255 / e
         if count >= 3:
-            self.colour = (*((1 - LEARNING_RATE) * c + LEARNING_RATE * m
+            rate = self.config.learning_rate
+            self.colour = (*((1 - rate) * c + rate * m
                              for c, m in zip(colour[:3], mean, strict=True)), 0.0)

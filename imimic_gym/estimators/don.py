@@ -93,7 +93,7 @@ class DON:
                                  threshold=config.threshold,
                                  working_height=config.working_height,
                                  scene_change=config.scene_change)
-        self.appearance = LinkAppearance() if config.appearance else None
+        self.appearance = LinkAppearance(config.colour) if config.appearance else None
         self.fps, self.window = float(fps), config.window
         self.reference_direction = reference_direction
         self.known_pivot = None if pivot is None else np.asarray(pivot, dtype=np.float64)

@@ -99,9 +99,8 @@ class LinkedDON:
                            self.band, config)
         self.children = self.chain.children
         # Any colour, taught by vouched readings only (`LinkedDONConfig.colour`).
-        self.appearances = ([LinkAppearance(disagree=math.inf, max_share=None,
-                                            first_trust=None)
-                             for _ in range(self.n)] if config.appearance else None)
+        self.appearances = ([LinkAppearance(config.colour) for _ in range(self.n)]
+                            if config.appearance else None)
         self.reset()
 
 

@@ -287,7 +287,7 @@ def test_vouched_readings_ten_degrees_off_relearn_the_colour_only_by_default(
     bar (a fit about a pivot a few pixels off): by default, RELEARN such frames drop the
     colour and the layer loses the bar; with ``disagree=math.inf`` (LinkedDON's) it keeps
     reading it."""
-    layer = LinkAppearance() if disagree is None else LinkAppearance(disagree=disagree)
+    layer = LinkAppearance() if disagree is None else LinkAppearance(disagree_deg=disagree)
     angles = range(40, 70, 2)
     readings = [layer.update(bar(wall(), math.radians(a)), PIVOT, RADIUS,
                              math.radians(a + (10 if k else 0)), True, 1.0)
@@ -298,3 +298,18 @@ def test_vouched_readings_ten_degrees_off_relearn_the_colour_only_by_default(
         assert any(r is None for r, _ in later)
     else:
         assert max(error_deg(r, math.radians(a)) for r, a in later) < 1.0
+
+
+def test_every_setting_of_the_layer_comes_from_its_config() -> None:
+    """DON and LinkedDON hand their `colour` settings to the layer; a field given to the
+    layer replaces the config's."""
+    from imimic_gym.estimators.config import AppearanceConfig, don_preset, override
+    from imimic_gym.estimators.don import DON
+
+    don = DON(config=override(don_preset("rgb"), {"colour.sigma": 20.0, "colour.near": 3}))
+    assert don.appearance is not None
+    assert don.appearance.config.sigma == 20.0 and don.appearance.config.near == 3
+    assert not np.array_equal(don.appearance.table, LinkAppearance().table)
+    assert LinkAppearance(AppearanceConfig(step_deg=3.0)).turns == 120
+    layer = LinkAppearance(AppearanceConfig(max_share=0.5), max_share=None)
+    assert layer.max_share is None and layer.disagree == math.radians(6.0)

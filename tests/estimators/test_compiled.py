@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
-from imimic_gym.estimators.appearance import _MATCH, MIN_CONTRAST, MIN_MATCH, _match
+from imimic_gym.estimators.appearance import _match, match_table
 from imimic_gym.estimators.compiled import (
     best_ray,
     close_colour_mean,
@@ -19,6 +19,10 @@ from imimic_gym.estimators.compiled import (
     region_moments,
     running_extrema,
 )
+from imimic_gym.estimators.config import AppearanceConfig
+
+COLOUR = AppearanceConfig()  # the appearance layer's defaults
+MATCH = match_table(COLOUR.sigma)
 
 
 @pytest.mark.parametrize("n", [1, 7, 8, 9, 15, 16, 127, 128, 129, 200, 256, 780, 1000, 5000])
@@ -71,7 +75,7 @@ def test_pivot_solve_drops_crossings_the_link_could_not_point_from() -> None:
 
 def _opencv_match(pixels: np.ndarray, colour: tuple[float, ...]) -> np.ndarray:
     """What the appearance layer computed with OpenCV before `colour_match`."""
-    return cv2.LUT(cv2.transform(cv2.absdiff(pixels, colour), np.ones((1, 3))), _MATCH)
+    return cv2.LUT(cv2.transform(cv2.absdiff(pixels, colour), np.ones((1, 3))), MATCH)
 
 
 def test_colour_match_is_opencvs_absdiff_sum_and_table_to_the_bit() -> None:
@@ -81,17 +85,18 @@ def test_colour_match_is_opencvs_absdiff_sum_and_table_to_the_bit() -> None:
         # Halves round to even, and colours past 0-255 saturate per channel, as in OpenCV.
         rgb = np.round(rng.uniform(-40, 300, 3)) + (0.5 if trial % 2 else 0.3)
         colour = (*rgb.tolist(), 0.0)
-        np.testing.assert_array_equal(_match(pixels, colour), _opencv_match(pixels, colour))
+        np.testing.assert_array_equal(_match(pixels, colour, MATCH), _opencv_match(pixels, colour))
 
 
 def test_best_ray_picks_the_ray_with_the_colour_and_refuses_a_flat_background() -> None:
     rng = np.random.default_rng(2)
     samples = rng.integers(100, 110, (3 * 20, 14, 3), dtype=np.uint8)  # a grey wall
     colour = (200, 120, 90)
-    assert best_ray(samples, colour, _MATCH, 3, 255 * MIN_MATCH, 255 * MIN_CONTRAST) == (-1, -1)
+    floors = 255 * COLOUR.min_match, 255 * COLOUR.min_contrast
+    assert best_ray(samples, colour, MATCH, 3, *floors) == (-1, -1)
     samples[3 * 7 + 2] = colour  # ray 7, shifted by its third offset, runs along the link
     samples[3 * 7 + 1, :5] = colour
-    assert best_ray(samples, colour, _MATCH, 3, 255 * MIN_MATCH, 255 * MIN_CONTRAST) == (7, 2)
+    assert best_ray(samples, colour, MATCH, 3, *floors) == (7, 2)
 
 
 def test_keep_window_changes_is_layer_3_as_opencv_computed_it() -> None:
