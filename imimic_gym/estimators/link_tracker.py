@@ -21,14 +21,13 @@ from collections.abc import Sequence
 import numpy as np
 
 from imimic_gym.estimators.config import TrackerConfig
+from imimic_gym.estimators.edge_memory import EdgeMemory
 from imimic_gym.estimators.joint_range import pointing_range
 from imimic_gym.estimators.pivot import PivotEstimator
 from imimic_gym.estimators.regions import (
     component_lines,
-    edge_along,
     erase_edges,
     follow,
-    lies_along,
     reach_square,
 )
 from imimic_gym.kinematics import wrap_angle
@@ -72,7 +71,6 @@ class LinkTracker:
                  reseek: bool = False, config: TrackerConfig | None = None) -> None:
         config = TrackerConfig() if config is None else config
         self.config = config
-        self._guess_parallel_sin = math.sin(math.radians(config.guess_edge_deg))
         self.reference_direction, self.known_pivot = reference_direction, pivot
         self.joint_range, self.min_area = joint_range, min_area
         self.reach_back = reach_back
@@ -100,15 +98,7 @@ class LinkTracker:
         self._recent: deque[list[float]] = deque(maxlen=config.reseek_memory)
         self._compared: np.ndarray | None = None  # the second estimate's last solve weighed
         self.reseeks = 0  # how often the pivot was replaced
-        # Where the edges that slid lately should be in the newest frame: (centre x, y,
-        # direction x, y, length) rows like `component_lines`'; and for the next frame,
-        # each with its shift per frame (x, y) and the frames since it was last seen.
-        self.expected_edges: list[tuple[float, float, float, float, float]] = []
-        self._moving_edges: list[tuple[tuple[float, float, float, float, float],
-                                       tuple[float, float], int]] = []
-        # Long edges that slid and have since stopped, as seen in the newest frame (same
-        # rows); updated only until the pivot is agreed, for `before_pivot`.
-        self.stopped_edges: list[tuple[float, ...]] = []
+        self.edges = EdgeMemory(config)  # the occluder's edges, remembered
 
     def pivot(self) -> np.ndarray | None:
         """The pivot in working pixels: the known one, else the estimate (None until the
@@ -142,65 +132,15 @@ class LinkTracker:
                     self.pivots.add_line(row, edge)
         if self.reseek:
             self._seek_again(rows, feeds, edges)
-        self._expect_edges(rows, [k for k, _ in follows])
+        self.edges.advance(rows, [k for k, _ in follows], self.sliding, self._previous_rows)
         pivot = self.pivot()
         if pivot is None:
-            self._note_stopped_edges(rows)
+            self.edges.note_stopped(rows, self.sliding)
         self._previous_lines, self._previous_rows = lines, rows
         if pivot is not None and (self._radius_pivot is None
                                   or np.hypot(*(pivot - self._radius_pivot)) > 2.0):
             self.radius, self._radius_pivot = None, pivot  # r was measured from elsewhere
         return lines
-
-    def _expect_edges(self, rows: list[list[float]], previous: list[int | None]) -> None:
-        """Move last frame's sliding edges on by their shift into ``expected_edges`` (where
-        they should be in this frame), and note this frame's for the next: each sliding
-        line with the sideways shift from the line it continues (``previous``,
-        `follow`), and each expected edge no sliding line of this frame lies along
-        (merged with the link, say), for up to ``edge_memory`` frames."""
-        self.expected_edges = [(cx + sx, cy + sy, dx, dy, length) for (
-            cx, cy, dx, dy, length), (sx, sy), _ in self._moving_edges]
-        sliding = [row for row, flag in zip(rows, self.sliding, strict=True) if flag]
-        moving = []
-        for edge, (_, shift, unseen) in zip(self.expected_edges, self._moving_edges,
-                                            strict=True):
-            if unseen < self.config.edge_memory and not any(
-                    lies_along(row, edge) for row in sliding):
-                moving.append((edge, shift, unseen + 1))
-        for row, k, flag in zip(rows, previous, self.sliding, strict=True):
-            if k is None or not flag:
-                continue
-            cx, cy, dx, dy, length = row[:5]
-            across = ((cx - self._previous_rows[k][0]) * -dy
-                      + (cy - self._previous_rows[k][1]) * dx)
-            moving.append(((cx, cy, dx, dy, length), (-dy * across, dx * across), 0))
-        self._moving_edges = moving
-
-    def _note_stopped_edges(self, rows: list[list[float]]) -> None:
-        """``stopped_edges``: this frame's regions longer than ``guess_edge_length`` that do
-        not slide but lie along (``guess_edge_px``, ``guess_edge_deg``) a long edge that
-        slid (``expected_edges``) or one that had stopped in the last frame: a board whose
-        side stops sliding stays an edge for the guess before the pivot. Matched with
-        the last frame's edge, so a region turning slowly beside it stays one
-        (`docs/decisions/don-occluder-edges.md`)."""
-        known = self._guess_edges()
-        self.stopped_edges = [
-            tuple(row[:5]) for row, sliding in zip(rows, self.sliding, strict=True)
-            if not sliding and row[4] > self.config.guess_edge_length
-            and self._edge_along(row, known)]
-
-    def _edge_along(self, line: list[float], edges: list[tuple[float, ...]]
-                    ) -> tuple[float, ...] | None:
-        """`regions.edge_along` by the guess's tolerances (``guess_edge_px``,
-        ``guess_edge_deg``)."""
-        return edge_along(line, edges, self.config.guess_edge_px, self._guess_parallel_sin)
-
-    def _guess_edges(self) -> list[tuple[float, ...]]:
-        """The edges no guess before the pivot may lie along: the long ones that slid
-        (where they should be now) and the stopped ones."""
-        long = self.config.guess_edge_length
-        return ([edge for edge in self.expected_edges if edge[4] > long]
-                + self.stopped_edges)
 
     def _follow_edges(self, rows: list[list[float]], previous: list[int | None]
                       ) -> list[int]:
@@ -315,7 +255,7 @@ class LinkTracker:
         """
         px, py = float(pivot[0]), float(pivot[1])
         kept = self._link_regions(lines, px, py, last)
-        if not kept and mask is not None and self.expected_edges:
+        if not kept and mask is not None and self.edges.expected:
             lines = self._past_edges(mask, self.config.parallel_deg)
             kept = self._link_regions(lines, px, py, last)
         if not kept:
@@ -336,12 +276,12 @@ class LinkTracker:
     def _past_edges(self, mask: np.ndarray, parallel_deg: float) -> np.ndarray:
         """The lines of ``mask`` with the expected occluder edges erased from it, less
         those within ``parallel_deg`` of parallel to one of them (what is left of it)."""
-        lines = component_lines(erase_edges(mask, self.expected_edges, self.config.erase_px),
+        lines = component_lines(erase_edges(mask, self.edges.expected, self.config.erase_px),
                                 self.min_area)
         if len(lines):
             keep = np.ones(len(lines), bool)
             parallel_sin = math.sin(math.radians(parallel_deg))
-            for _, _, dx, dy, _ in self.expected_edges:
+            for _, _, dx, dy, _ in self.edges.expected:
                 keep &= np.abs(lines[:, 2] * dy - lines[:, 3] * dx) > parallel_sin
             lines = lines[keep]
         return lines
@@ -391,7 +331,7 @@ class LinkTracker:
         deviations, the span `measure` takes a region to cover); None without a range or
         such a region. Not a region shorter than ``guess_min_length``, nor a sliding
         edge, nor one along where a long edge should be now or has stopped
-        (``guess_edge_px``, ``guess_edge_deg``; `stopped_edges`).
+        (``guess_edge_px``, ``guess_edge_deg``; `EdgeMemory.stopped`).
 
         ``mask``: the (h, w) mask ``lines`` came from. Where no region gives a guess, the
         forearm may have merged with a board's sliding side into one blob too round to
@@ -400,7 +340,7 @@ class LinkTracker:
         pass no mask, so this look past the edges is DON's alone
         (`docs/decisions/don-occluder-edges.md`)."""
         guess = self._axis_guess(lines)
-        if guess is None and mask is not None and self.expected_edges:
+        if guess is None and mask is not None and self.edges.expected:
             guess = self._axis_guess(self._past_edges(mask, self.config.guess_edge_deg))
         return guess
 
@@ -410,9 +350,9 @@ class LinkTracker:
             return None
         candidates = lines[(lines[:, 5] > 2.0) & (lines[:, 4] > self.config.guess_min_length)
                            & ~self._sliding(lines)]
-        edges = self._guess_edges()
+        edges = self.edges.guess_edges()
         if len(candidates) and edges:
-            candidates = candidates[[self._edge_along(row, edges) is None
+            candidates = candidates[[self.edges.along(row, edges) is None
                                      for row in candidates.tolist()]]
         if len(candidates) == 0:
             return None

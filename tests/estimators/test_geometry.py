@@ -309,7 +309,7 @@ def test_before_the_pivot_a_sliding_edge_that_stopped_is_still_no_guess() -> Non
     its last shift (and is forgotten EDGE_MEMORY frames later), so it soon misses the
     still side, the longest region; the side is still the edge that slid: the guess
     stays the sliver's axis throughout (the side's 90 degrees from the third frame on,
-    before `LinkTracker.stopped_edges`)."""
+    before `EdgeMemory.stopped`)."""
     tracker = _tracker_after_a_board_side_slid()
     for frame in range(2 * EDGE_MEMORY):
         mask = np.zeros((120, 160), dtype=np.uint8)
@@ -320,7 +320,7 @@ def test_before_the_pivot_a_sliding_edge_that_stopped_is_still_no_guess() -> Non
         cv2.line(mask, (40, 90), tip, 255, thickness=3)
         angle, _ = tracker.before_pivot(tracker.lines(mask))
         assert math.degrees(angle) == pytest.approx(degrees, abs=4.0), frame
-    assert tracker.expected_edges == []  # the slide itself is forgotten by now
+    assert tracker.edges.expected == []  # the slide itself is forgotten by now
 
 
 def test_before_the_pivot_a_forearm_merged_with_a_sliding_edge_is_found_past_it() -> None:
