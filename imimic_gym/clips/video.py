@@ -6,10 +6,10 @@
   read by OpenCV's image-sequence backend, each image at its own size), a camera index
   (``0``) or a stream URL (``rtsp://...``). One frame is held at a time; the capture is
   released in ``finally`` when the stream ends, fails or is abandoned.
-- `load_video` reads a whole file into a `Clip` (random access: what an RL env resets
-  into); `stream_video` wraps a reader in a `Clip` whose frames are a `FrameStream`, read
-  on demand and kept in a bounded buffer, so a live camera never needs the whole stream
-  in memory.
+- `clips.video_load.load_video` reads a whole file into a `Clip` (random access: what
+  an RL env resets into); `stream_video` wraps a reader in a `Clip` whose frames are a
+  `FrameStream`, read on demand and kept in a bounded buffer, so a live camera never
+  needs the whole stream in memory.
 
 Problems are named: a source that cannot be opened raises `VideoOpenError` (an OSError);
 one with no decodable frame or whose resolution changes mid-stream raises
@@ -26,7 +26,6 @@ spans the paper's 120-degree servo range centred on it (`DEFAULT_JOINT_RANGE`).
 from __future__ import annotations
 
 import math
-import os
 import time
 from collections import deque
 from collections.abc import Generator, Iterator, Sequence
@@ -40,11 +39,10 @@ from imimic_gym.clips.types import Clip
 
 __all__ = [
     "DEFAULT_JOINT_RANGE", "DEFAULT_REFERENCE_DIRECTION", "FrameStream", "StreamEndedError",
-    "VideoFormatError", "VideoOpenError", "VideoReader", "load_video", "require_frames",
-    "stream_video", "video_meta",
+    "VideoFormatError", "VideoOpenError", "VideoReader", "require_frames", "stream_video",
+    "video_meta",
 ]
 
-DEFAULT_VIDEO_MAX_GB = 8.0  # load_video's bound on the frames it holds in memory
 DEFAULT_REFERENCE_DIRECTION = -math.pi / 2  # image down (CCW from image right)
 DEFAULT_JOINT_RANGE = (-math.pi / 3, math.pi / 3)  # the paper's 120-degree servo, centred
 LIVE_FPS = 30.0  # a camera that does not report its rate is taken to run at this
@@ -228,117 +226,6 @@ def video_meta(reader: VideoReader, n_links: int, reference_direction: float,
         "joint_ranges": [[float(lo), float(hi)] for lo, hi in joint_ranges],
         "arm_plane": "vertical",
     }
-
-
-def load_video(
-    source: str | Path,
-    annotations: str | Path | None = None,
-    *,
-    n_links: int = 1,
-    reference_direction: float = DEFAULT_REFERENCE_DIRECTION,
-    joint_ranges: Sequence[tuple[float, float]] | None = None,
-    fps: float | None = None,
-    max_frames: int | None = None,
-    side: str = "auto",
-) -> Clip:
-    """Read a recorded video into a `Clip`: frames (T, H, W, 3) uint8 RGB, the file's fps.
-
-    Args:
-        source: the file (or image pattern, see `VideoReader`).
-        annotations: a COCO-keypoints JSON with shoulder, elbow and wrist per frame (see
-            `imimic_gym.clips.annotations`); it becomes ``clip.truth``. ``"pose"``: the
-            pose model's arm is the truth (pseudo-truth, `imimic_gym.labels`: frames it
-            is unsure of are interpolated). None: no truth.
-        n_links: moving links the robot copies (1: the forearm, 2: upper arm and forearm).
-        reference_direction: image direction of the fixed reference link, rad CCW from
-            image right (default: image down).
-        joint_ranges: per link (low, high) rad; default `DEFAULT_JOINT_RANGE` each.
-        fps: frame rate for sources that report none.
-        max_frames: read at most this many frames (memory: T x H x W x 3 bytes).
-        side: which arm the annotations describe: "left", "right" or "auto".
-
-    ``meta`` holds ``reference_direction`` and ``joint_ranges`` (so the env builds a
-    matching robot), ``skipped_frames`` (corrupt frames left out) and, with truth,
-    ``truth_source`` ("annotations" or "pose").
-    """
-    from imimic_gym.clips.annotations import truth_from_coco
-
-    ranges = tuple(joint_ranges) if joint_ranges is not None else (DEFAULT_JOINT_RANGE,) * n_links
-    reader = VideoReader(source, fps=fps)
-    stream = iter(reader)
-    stacked = _read_all(reader, stream, max_frames)
-    meta = {**video_meta(reader, n_links, reference_direction, ranges),
-            "skipped_frames": reader.skipped_frames}
-    truth = None
-    if annotations == "pose":
-        # Pseudo-truth: the pose model's arm on the frames it is sure of (`labels.py`).
-        from imimic_gym.clips.annotations import truth_from_keypoints
-        from imimic_gym.labels import label_frames
-
-        arm = side if side in ("left", "right") else "auto"
-        labels = label_frames(stacked, reader.fps, arm=arm)
-        truth = truth_from_keypoints(labels.keypoints, np.repeat(labels.labelled[:, None], 3,
-                                                                 axis=1),
-                                     reader.fps, n_links, reference_direction,
-                                     source=f"the pose model on {source}")
-        meta.update(annotations="pose", truth_source="pose")
-    elif annotations is not None:
-        truth = truth_from_coco(annotations, len(stacked), reader.fps, n_links,
-                                reference_direction, side=side)
-        meta.update(annotations=str(annotations), truth_source="annotations")
-    return Clip(frames=stacked, fps=reader.fps, truth=truth, meta=meta)
-
-
-def video_memory_limit() -> float:
-    """Bytes of frames `load_video` may hold, from ``$IMIMIC_VIDEO_MAX_GB`` (GB of 10^9
-    bytes, default `DEFAULT_VIDEO_MAX_GB`)."""
-    raw = os.environ.get("IMIMIC_VIDEO_MAX_GB", "").strip()
-    try:
-        gb = float(raw) if raw else DEFAULT_VIDEO_MAX_GB
-    except ValueError:
-        gb = math.nan
-    if not gb > 0:
-        raise ValueError(f"IMIMIC_VIDEO_MAX_GB must be a positive number of GB, got {raw!r}")
-    return gb * 1e9
-
-
-def _read_all(reader: VideoReader, stream: Generator[np.ndarray, None, None],
-              max_frames: int | None) -> np.ndarray:
-    """Every frame of ``stream`` (up to ``max_frames``) in one preallocated (T, H, W, 3)
-    array when the container says how many there are (no list and stacked copy: half
-    the peak memory), refusing up front a video that would not fit `video_memory_limit`."""
-    limit = video_memory_limit()
-    first = next(stream, None)
-    if first is None:
-        raise VideoFormatError(f"{reader.name}: no frame could be decoded")
-    count = reader.frame_count or 0
-    if max_frames is not None:
-        count = min(count, max_frames) if count else max_frames
-    need = max(count, 1) * first.nbytes
-    if need > limit:
-        stream.close()
-        raise VideoFormatError(
-            f"{reader.name}: {count} frames of {first.shape[1]}x{first.shape[0]} take "
-            f"{need / 1e9:.3g} GB in memory, over the {limit / 1e9:g} GB bound "
-            "(IMIMIC_VIDEO_MAX_GB); read fewer (max_frames=, n_frames=), or stream it "
-            "(clips.video.stream_video, imimic mimic), which holds a few frames at a time")
-    frames = np.empty((max(count, 1), *first.shape), dtype=np.uint8)
-    frames[0], n = first, 1
-    for frame in stream:
-        if max_frames is not None and n >= max_frames:
-            break
-        if n == len(frames):  # the container undercounted: grow by half
-            if (n + n // 2 + 1) * first.nbytes > limit:
-                stream.close()
-                raise VideoFormatError(f"{reader.name}: over {n} frames, more than the "
-                                       f"{limit / 1e9:g} GB bound (IMIMIC_VIDEO_MAX_GB) holds")
-            frames = np.concatenate([frames, np.empty_like(frames[: n // 2 + 1])])
-        frames[n] = frame
-        n += 1
-    stream.close()  # releases the capture now
-    if n < len(frames):  # the container overcounted: give the rest back, in place
-        frames.resize((n, *first.shape), refcheck=False)
-    return frames
 
 
 class FrameStream:

@@ -182,7 +182,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
             raise ValueError(f"annotations={annotations!r} belong to a video: give its path "
                              f"as clip=, got clip={clip!r}")
         if isinstance(clip, (str, Path)):
-            from imimic_gym.clips.video import load_video
+            from imimic_gym.clips.video_load import load_video
 
             clip = load_video(clip, annotations, n_links=n_links or 1, max_frames=n_frames)
         if clip is not None:

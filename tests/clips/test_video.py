@@ -16,10 +16,10 @@ from imimic_gym.clips.video import (
     VideoFormatError,
     VideoOpenError,
     VideoReader,
-    load_video,
     require_frames,
     stream_video,
 )
+from imimic_gym.clips.video_load import load_video
 from imimic_gym.clips.video_writer import write_video
 from imimic_gym.estimators.don import DON
 from imimic_gym.metrics import angle_rmse_deg
