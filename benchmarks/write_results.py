@@ -12,7 +12,6 @@ from statistics import median
 
 from results_don_links import don_links_section
 from results_don_pivot import render as render_don_pivot
-from results_don_speed import render as render_don_speed
 
 HERE = Path(__file__).parent
 RESULTS = HERE / "results"
@@ -30,9 +29,9 @@ def table(header: list[str], rows: list[list[str]]) -> str:
 
 
 def main() -> None:
-    env, step = load("env"), load("step_profile")
-    don, evaluation, depth = load("don"), load("eval"), load("eval_depth")
-    m = env["machine"]
+    evaluation, depth = load("eval"), load("eval_depth")
+    m = json.loads((RESULTS / "speed.json").read_text())["machine"] if (
+        RESULTS / "speed.json").exists() else load("accuracy")["machine"]
     mean = {(r["scenario"], r["estimator"]): r for r in evaluation}
 
     def ev(scenario: str, estimator: str, key: str = "rmse_deg_settled") -> float:
@@ -77,9 +76,6 @@ def main() -> None:
 
     episodes, first_seed = evaluation[0]["episodes"], evaluation[0]["first_seed"]
 
-    render = dict(env["render_frames_per_s"])
-    reference = render.pop("mujoco_renderer_rgb")
-    slow = sorted(name for name, fps in render.items() if fps < 150)
     out = [f"""# Measured results
 
 Every figure here comes from a script in `benchmarks/`: `bash benchmarks/run_all.sh` (or
@@ -100,107 +96,8 @@ them keep the record of how the code got here; their "held-out" figures come fro
 **retired**: where they differ from the test pool, the test pool is right. The one-off
 experiments behind a choice are in its decision record, with their figures and the
 command that reruns them: {decision_records()}.
-{suite_section("accuracy")}{suite_section("tracking")}{suite_section("paper")}{suite_section("scaleout")}
-## Environment speed (issue 2)
-
-Command: `.venv/bin/imimic bench env --json benchmarks/results/env.json`
-
-ImitateVideo-v0 (default scenario, clip from the cache, the 240x320 frame copied into
-every observation, through `gym.make`'s wrappers) against Gymnasium's `Reacher-v5`,
-random actions, {env['steps']} steps a run, {env['repeats']} alternating runs each, medians:
-
-{table(["env", "steps/s"], [["ImitateVideo-v0", f"{env['imitate_steps_per_s']:.0f}"],
-                            ["Reacher-v5", f"{env['reacher_steps_per_s']:.0f}"],
-                            ["**ratio**", f"**{env['ratio']:.2f}** (target >= 0.5)"]])}
-
-Where a step goes. Command: `.venv/bin/python benchmarks/step_profile.py --json
-benchmarks/results/step_profile.json`
-
-{table(["part of a step", "us"], [
-        ["whole `env.step` through `gym.make`", f"{step['step_us']:.0f}"],
-        [f"physics, {step['substeps']} substeps of {step['physics_step_ms']:.2f} ms",
-         f"{step['physics_us']:.0f}"],
-        ["physics if the substep were 2 ms (17 substeps)", f"{step['physics_2ms_us']:.0f}"],
-        ["observation (frame copy, state)", f"{step['observation_us']:.0f}"],
-        ["info (target, error)", f"{step['info_us']:.0f}"]])}
-
-The substep is the largest that divides a frame and stays under 5.6 ms. The position servo
-following a 0.5 Hz sine sampled at 30 fps lags by at most
-{step['servo_max_error_deg']:.2f} degrees with it and {step['servo_max_error_2ms_deg']:.2f} with 2 ms
-substeps: the larger step costs no accuracy.
-
-## Clip rendering (issue 2)
-
-Same command. Frames per second at 240x320 rendering a 150-frame clip from scratch (no
-cache), ground truth included (keypoints, visibility, occlusion, depth), median of 3
-rounds. The reference, measured in the same run: `mujoco.Renderer` drawing plain RGB
-frames of the default scene, no truth: {reference:.0f} frames/s.
-
-{table(["scenario", "frames/s", "vs mujoco.Renderer RGB"],
-       [[f"`{k}`", f"{v:.0f}", f"{v / reference:.2f}"] for k, v in render.items()])}
-
-Target: at least 150 frames/s. In this run: {"met by every scenario." if not slow else
-"met by every scenario except " + ", ".join(f"`{s}`" for s in slow) + "."} Absolute
-frame rates move by a quarter between runs on this shared machine (the `default` scenario
-has measured from 156 to 276 frames/s), which is why the same-run reference is there. A
-frame with its full truth costs {reference / render['default']:.1f}x a plain RGB frame of the same scene. A
-profile of `render_clip` shows where it goes: reading colour and depth back together (the
-largest single part; the depth truth and the keypoint visibility need it), drawing,
-converting depth, per-frame bookkeeping and, in the occluder scenes, the occlusion pass.
-Scenes with an occluder need a second render pass (the moving links alone, as
-segmentation and depth) to measure how much of the arm is hidden, in the frames where the
-board's image overlaps the arm's; on the software renderer a pass has a fixed cost even
-when it draws two geoms and reads back only the box around the arm. A rendered clip is
-cached, so this is paid once per clip.
-
-What makes rendering fast (each measured while building it, one at a time; the table is
-the result of all of them): no MSAA (`offsamples=0`), one llvmpipe thread (at 240x320
-handing tiles between threads costs more than it saves), colour and depth read back from
-one pass, keypoint visibility by a z-test against that depth instead of a segmentation
-pass, the occlusion pass only where the board can overlap the arm, and thin boxes instead
-of MuJoCo planes and textures for the walls and floor (planes are drawn as many lit quads).
-
-## DON and the baselines (issue 3, in progress)
-
-Not done. This section records where DON stands, measured. DON handles one moving link;
-the prediction layer is implemented but off by default (see below).
-
-### Speed: the paper's Table 1 on equal frames
-
-Command: `.venv/bin/imimic bench don --json benchmarks/results/don.json`
-
-CPU milliseconds per frame (the process's CPU time: what the OS gives other jobs on this
-shared machine is not counted), one OpenCV thread, the same rendered frames of the `default`
-scenario ({don['frames']} frames), median of {don['repeats']} alternating runs after an untimed one. "MOG2 raw" is OpenCV's
-`BackgroundSubtractorMOG2.apply` on the full frame (the paper's comparison); the
-"estimator" columns are the full baselines (working resolution, link geometry) used in
-the accuracy comparison below.
-
-{table(["resolution", "DON", "DON, paper's layers", "MOG2 estimator", "CamShift estimator", "MOG2 raw", "DON / MOG2 raw", "paper's layers / MOG2 raw"],
-       [[r["resolution"], f"{r['don_ms']:.2f}", f"{r['don_paper_ms']:.2f}", f"{r['mog2_estimator_ms']:.2f}",
-         f"{r['camshift_estimator_ms']:.2f}", f"{r['mog2_raw_ms']:.2f}", f"{r['ratio_mog2']:.2f}",
-         f"{r['ratio_mog2_paper']:.2f}"]
-        for r in don["rows"]])}
-
-"DON" is the default, with our appearance layer (`estimators/appearance.py`) after the
-paper's layers; "DON, paper's layers" is `DON(appearance=False)`.
-
-Target: DON at most 0.3x MOG2 at every resolution. The default DON: {", ".join(
-    f"{r['resolution']}: {'met' if r['ratio_mog2'] <= 0.3 else '**not met**'}" for r in don['rows'])}.
-The paper's layers alone: {", ".join(
-    f"{r['resolution']}: {'met' if r['ratio_mog2_paper'] <= 0.3 else '**not met**'}" for r in don['rows'])}.
-DON's time grows little with the input (it works at 120 rows; only the first downscale
-sees every pixel), raw MOG2's grows with the pixels, so the ratio is worst at the
-smallest size. The appearance layer costs about as much at every size (it reads the
-working frame){appearance_at_smallest(don['rows'][0])}. We kept it on by
-default because of what it buys in accuracy (below, and `estimators/don.py`'s
-docstring); `DON(appearance=False)` is the paper's network, below the paper's ratio.
-{render_don_speed(load, table)}
-Paper Fig. 3 (same command): `benchmarks/results/don_window.png` plots time per frame
-against N from 2 to 20: flat, because the union over the window is kept incrementally
-(the paper's time grows with N). `benchmarks/results/don_lighting.png` plots moving
-pixels detected against light intensity: near zero at 0.2-0.3, rising steadily after, in
-line with the paper's "works above 50%".
+{suite_section("speed")}{suite_section("accuracy")}{suite_section("tracking")}{suite_section("paper")}{suite_section("scaleout")}
+## DON and the baselines on retired seeds (issue 3)
 
 ### Accuracy on held-out clips
 
@@ -287,15 +184,6 @@ Against issue 3's acceptance:
     out.append(suite_section("fresh_clone"))
     out.append(don_links_section())
     (HERE / "RESULTS.md").write_text("".join(out))
-
-
-def appearance_at_smallest(row: dict) -> str:
-    """Whether, in this bench run, the appearance layer took the default DON past 0.3x
-    raw MOG2 at the smallest size (where the paper's layers alone are below it)."""
-    if row["ratio_mog2"] <= 0.3:
-        return f": at {row['resolution']} the default stays within 0.3 in this run"
-    return (f": at {row['resolution']} it is what takes the default past 0.3 in this run, by "
-            f"{row['ratio_mog2'] - 0.3:.3f}")
 
 
 def fresh_clips(fresh: list[dict], held_out) -> str:
