@@ -8,8 +8,7 @@ the JSON alone.
 Each suite is a module in ``benchmarks/suites/`` with ``run(args) -> dict`` (everything
 it measured, the machine included) and ``render(data) -> str`` (Markdown, every figure
 read from ``data``). After a run, ``benchmarks/write_results.py`` puts the rendered
-sections into RESULTS.md (with the older sections it still writes from the scripts that
-`run_all.sh` runs).
+sections into RESULTS.md, after an introduction.
 """
 
 from __future__ import annotations
@@ -25,6 +24,8 @@ from imimic_gym.backends import BACKENDS
 ROOT = Path(__file__).resolve().parent
 RESULTS = ROOT / "results"
 SUITES = {
+    "speed": "env steps, clip rendering, DON against MOG2 (the paper's Table 1 and Fig. 3), "
+             "LinkedDON and DON's compile time, each against a reference in the same run",
     "accuracy": "every video estimator on the test pool, per scenario and per joint",
     "tracking": "the controllers on the test pool, and the learned tracker's margin",
     "paper": "the paper's experiments 1-4 on the test pool against its statements",

@@ -1,37 +1,9 @@
 #!/usr/bin/env bash
-# Reruns every benchmark quoted in benchmarks/RESULTS.md and the README.
+# Reruns every benchmark quoted in benchmarks/RESULTS.md and the README: every suite of the
+# runner, then RESULTS.md from their JSON.
 #   bash benchmarks/run_all.sh        (or: make bench)
-# Results land in benchmarks/results/*.json; copy the tables into RESULTS.md.
+# It writes only benchmarks/results/ and RESULTS.md (no checkpoint is retrained).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BIN=${BIN:-.venv/bin}
-mkdir -p benchmarks/results
-"$BIN/imimic" bench env --json benchmarks/results/env.json
-"$BIN/python" benchmarks/step_profile.py --json benchmarks/results/step_profile.json
-"$BIN/imimic" bench don --json benchmarks/results/don.json
-"$BIN/imimic" eval --scenario exp2-servo default exp3-forearm-none exp3-forearm-low \
-    exp3-forearm-high exp1-noisy-fast --estimator don don-paper mog2 camshift --episodes 10 \
-    --json benchmarks/results/eval.json
-"$BIN/imimic" eval --scenario exp2-servo default exp3-forearm-none exp3-forearm-low \
-    exp3-forearm-high exp1-noisy-fast --estimator don \
-    --episodes 10 --modality depth --json benchmarks/results/eval_depth.json
-# Fresh clips, more of them: is the held-out figure a property of seeds 1000-1009?
-"$BIN/imimic" eval --scenario exp3-forearm-none exp3-forearm-low exp3-forearm-high \
-    --estimator don --episodes 30 --first-seed 2000 --json benchmarks/results/eval_fresh.json
-"$BIN/python" benchmarks/don_known_pivot.py --json benchmarks/results/don_known_pivot.json
-"$BIN/python" benchmarks/don_error_sources.py --json benchmarks/results/don_error_sources.json
-# The runner's suites: the test pool (accuracy, tracking, paper), the shipped CNN (cnn),
-# real people (parts that need ../shared/realdata are skipped with a message without it),
-# scale-out on Ray, a fresh clone's waits (fresh_clone).
 "$BIN/python" benchmarks/run.py all --backend ray
-# DON's time by stage (issue 3 speed), and that the compiled loops (c3f9eeb) left every
-# estimate as it was at 0ebd481, the last revision without them.
-"$BIN/python" benchmarks/don_stages.py --json benchmarks/results/don_stages.json
-"$BIN/python" benchmarks/don_same_estimates.py --base 0ebd481 --head c3f9eeb \
-    --json benchmarks/results/don_same_estimates.json
-"$BIN/python" benchmarks/don_compile_time.py --json benchmarks/results/don_compile_time.json
-"$BIN/imimic" eval --scenario chain-2 chain-3 exp4-hand --estimator don don-paper --episodes 10 \
-    --json benchmarks/results/don_links.json
-"$BIN/python" benchmarks/don_links_speed.py --json benchmarks/results/don_links_speed.json
-"$BIN/python" benchmarks/don_links_dev_seeds.py --json benchmarks/results/don_links_dev.json
-"$BIN/python" benchmarks/write_results.py
