@@ -28,7 +28,7 @@ __all__ = ["ImitateVideoEnv", "SimulationUnstableError", "imitate_env"]
 
 # The physics step is the largest that divides a frame evenly and stays under this (s):
 # 6 substeps of 5.6 ms per frame at 30 fps. It resolves the 12 Hz servo (omega dt = 0.42,
-# damping implicit) as well as 2 ms steps do; benchmarks/step_profile.py measures both.
+# damping implicit) as well as 2 ms steps do; `benchmarks/run.py speed --parts step` measures both.
 MAX_PHYSICS_STEP = 0.0056
 MAX_OBSERVED_SPEED = 200.0  # rad/s; the joint-velocity sensor saturates here
 CLIPS_IN_MEMORY = 4
