@@ -51,7 +51,9 @@ def ci(cell: dict[str, Any] | None, digits: int = 1) -> str:
     """"mean (low-high)" of a `spread` or `metrics.with_interval` cell."""
     if not cell or cell.get("value") is None:
         return "-"
-    return f"{cell['value']:.{digits}f} ({cell['low']:.{digits}f}-{cell['high']:.{digits}f})"
+    dash = " to " if cell["low"] < 0 else "-"  # "-1.5 (-2.6 to -0.4)", not "-2.6--0.4"
+    return (f"{cell['value']:.{digits}f} ({cell['low']:.{digits}f}{dash}"
+            f"{cell['high']:.{digits}f})")
 
 
 def worst(cell: dict[str, Any], digits: int = 1) -> str:
