@@ -38,7 +38,10 @@ def capture(out: Path) -> None:
     from imimic_gym.arms import build_arm_model
     from imimic_gym.clips.cache import load_clip
     from imimic_gym.clips.scenarios import get_scenario
-    from imimic_gym.clips.types import depth_to_frame
+    try:
+        from imimic_gym.clips.types import depth_to_frame
+    except ImportError:  # a revision from before it moved there
+        from imimic_gym.envs.imitate_video import depth_to_frame  # type: ignore[no-redef]
     from imimic_gym.estimators.don import DON
 
     arrays: dict[str, np.ndarray] = {}
