@@ -7,6 +7,10 @@ Each writes ``<out>/arm<links>_train.json`` (56 clips x 4 frames = 224 images) a
 ``<out>/arm<links>_test.json`` (19 clips x 4 = 76 images): the paper's 300-image split.
 Bigger training sets for the learning curve: ``--train-clips 750 --name arm1_3000``.
 ``--backend ray [--address ADDR]`` renders one clip per Ray task (the same files).
+``--randomise`` draws each clip's look at random (clothing and skin colours, backdrop,
+light, camera height, tilt, distance and place: `dataset.randomised_spec`), for a CNN
+meant for footage beyond our renderer: ``--randomise --train-clips 150 --name arm2_random
+--links 2 --out runs/data``.
 """
 
 from __future__ import annotations
@@ -37,6 +41,9 @@ def main() -> None:
                         help="file stem (default: arm<links>); writes <name>_train.json")
     parser.add_argument("--out", default=str(DEFAULT_ANNOTATIONS),
                         help="output folder (default: the shipped annotations/)")
+    parser.add_argument("--randomise", action="store_true",
+                        help="draw every clip's look at random (domain randomisation); "
+                             "default: the shipped dataset's plain variation")
     parser.add_argument("--backend", default="local", choices=BACKENDS,
                         help="render here (default) or one Ray task per clip (pip install "
                              "'imimic_gym[ray]')")
@@ -44,7 +51,7 @@ def main() -> None:
                         help="--backend ray: a cluster (default: the Ray that `ray start` "
                              "runs here, else a new local one)")
     args = parser.parse_args()
-    name = args.name or f"arm{args.links}"
+    name = args.name or f"arm{args.links}{'_random' * args.randomise}"
     offset = 10_000 * (args.links - 1)
     for split, clips, first in (("train", args.train_clips, TRAIN_SEEDS),
                                 ("test", args.test_clips, TEST_SEEDS)):
@@ -53,12 +60,13 @@ def main() -> None:
         try:
             arms = generate_arms(args.links, clips, first + offset, rng_seed=first + offset,
                                  prefix=f"{name}/{split}", backend=args.backend,
-                                 address=args.address)
+                                 address=args.address, randomise=args.randomise)
         except BackendError as error:
             parser.exit(2, f"make_dataset.py: {error}\n")
         path = f"{args.out}/{name}_{split}.json"
+        look = ", randomised" if args.randomise else ""
         write_annotations(path, arms, description=f"imimic_gym rendered arms, {args.links} "
-                          f"link(s), {split}: {len(arms)} images")
+                          f"link(s){look}, {split}: {len(arms)} images")
         print(f"wrote {path} ({len(arms)} images)")
 
 

@@ -128,7 +128,8 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
     from imimic_gym.clips.scenarios import SCENARIOS
 
     for name, spec in sorted(SCENARIOS.items()):
-        fields = {k: v for k, v in asdict(spec).items() if k not in ("name", "seed")}
+        fields = {k: v for k, v in asdict(spec).items()
+                  if k not in ("name", "seed") and not (k == "appearance" and v is None)}
         print(f"{name:20s} " + ", ".join(f"{k}={v}" for k, v in fields.items()))
     return 0
 

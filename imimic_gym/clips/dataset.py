@@ -20,7 +20,6 @@ import logging
 import os
 import tempfile
 from collections import defaultdict
-from dataclasses import asdict
 from pathlib import Path
 from typing import Any, cast
 
@@ -31,11 +30,12 @@ from tqdm.auto import tqdm
 from imimic_gym.checkpoints import SHIPPED_ANNOTATIONS
 from imimic_gym.clips.annotations import ArmAnnotation, image_path
 from imimic_gym.clips.cache import cache_dir
-from imimic_gym.clips.scenarios import Background, ClipSpec
+from imimic_gym.clips.demonstrator import camera_pose, workspace
+from imimic_gym.clips.scenarios import Appearance, Background, ClipSpec
 from imimic_gym.clips.synthetic import render_clip
 
-__all__ = ["DEFAULT_ANNOTATIONS", "IMAGES_PER_CLIP", "generate_arms", "load_images",
-           "rendered_image_path"]
+__all__ = ["DEFAULT_ANNOTATIONS", "IMAGES_PER_CLIP", "arm_in_frame", "generate_arms",
+           "load_images", "randomised_spec", "rendered_image_path"]
 
 DEFAULT_ANNOTATIONS = SHIPPED_ANNOTATIONS
 IMAGES_PER_CLIP = 4
@@ -53,6 +53,74 @@ def _sample_spec(links: int, seed: int, rng: np.random.Generator) -> ClipSpec:
         camera_distance=round(float(rng.uniform(1.9, 2.6)), 3),
         sway=round(float(rng.uniform(0.0, 1.0)), 3),
     )
+
+
+# Skin tones from light to dark (linear RGB); a drawn tone is one of them, jittered.
+SKIN_TONES = ((0.96, 0.80, 0.69), (0.87, 0.67, 0.53), (0.71, 0.51, 0.38),
+              (0.55, 0.37, 0.26), (0.36, 0.23, 0.16))
+
+
+def arm_in_frame(spec: ClipSpec, margin: float = 4.0) -> bool:
+    """Does the whole region the arm can sweep (`workspace`, a disc in the arm's plane)
+    project inside the frame, ``margin`` pixels from its edges, for a person's scene?"""
+    centre, radius = workspace(spec)
+    position, right, up, fovy = camera_pose(spec)
+    forward = np.cross(up, right)  # the camera looks along -(right x up)
+    turn = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    rim = centre + radius * np.stack([np.cos(turn), np.zeros_like(turn), np.sin(turn)], 1)
+    local = rim - position
+    depth = local @ forward
+    if np.any(depth <= 0.1):
+        return False
+    focal = 0.5 * spec.height / np.tan(np.radians(fovy) / 2)
+    x = spec.width / 2 + focal * (local @ right) / depth
+    y = spec.height / 2 - focal * (local @ up) / depth
+    return bool(np.all((x >= margin) & (x <= spec.width - 1 - margin)
+                       & (y >= margin) & (y <= spec.height - 1 - margin)))
+
+
+def randomised_spec(links: int, seed: int, rng: np.random.Generator) -> ClipSpec:
+    """A clip of a person with everything ``rng`` can vary drawn at random (domain
+    randomisation): clothing and skin colours, long or short sleeves, a plain, tiled or
+    cluttered backdrop of any colour and tile size, the light's strength, direction and
+    colour, the camera's distance (the person's scale), height, tilt, sideways place and
+    field of view (the person's place in the frame), and body sway. Drawn again until the
+    arm's whole workspace is in the frame (`arm_in_frame`)."""
+
+    def rgb(values: np.ndarray) -> tuple[float, float, float]:
+        r, g, b = (round(float(v), 3) for v in values)
+        return r, g, b
+
+    def colour(low: float, high: float) -> tuple[float, float, float]:
+        return rgb(rng.uniform(low, high, 3))
+
+    def number(low: float, high: float) -> float:
+        return round(float(rng.uniform(low, high)), 3)
+
+    while True:
+        tone = np.array(SKIN_TONES[rng.integers(len(SKIN_TONES))])
+        skin = rgb(np.clip(tone + rng.uniform(-0.04, 0.04, 3), 0, 1))
+        distance, height = number(1.7, 3.6), number(-0.5, 0.8)
+        appearance = Appearance(
+            skin=skin, shirt=colour(0.03, 0.97), pants=colour(0.03, 0.8),
+            long_sleeves=bool(rng.random() < 0.5), wall=colour(0.08, 0.97),
+            tile=colour(0.08, 0.97), floor=colour(0.08, 0.7), tile_size=number(0.08, 0.6),
+            clutter=int(rng.integers(4, 31)),
+            light_direction=(number(-1, 1), number(0.3, 1), number(-1, -0.2)),
+            light_colour=colour(0.75, 1.0), camera_height=height,
+            camera_tilt=round(float(np.degrees(np.arctan2(height, distance))
+                                    + rng.uniform(-8, 8)), 3),
+            camera_shift=number(-0.7, 0.7), fovy=number(35, 60),
+        )
+        spec = ClipSpec(
+            n_links=links, motion="spline", seed=seed, n_frames=CLIP_FRAMES,
+            background=cast(Background, str(rng.choice(["plain", "textured", "cluttered"],
+                                                        p=[0.2, 0.4, 0.4]))),
+            lighting=number(0.4, 1.0), camera_distance=distance, sway=number(0.0, 1.0),
+            appearance=appearance,
+        )
+        if arm_in_frame(spec):
+            return spec
 
 
 def _digest(image: np.ndarray) -> str:
@@ -83,11 +151,13 @@ def _store(path: Path, rgb: np.ndarray) -> None:
 
 def generate_arms(links: int, n_clips: int, first_seed: int, rng_seed: int,
                   prefix: str, progress: bool = True, backend: str = "local",
-                  address: str | None = None) -> list[ArmAnnotation]:
+                  address: str | None = None, randomise: bool = False) -> list[ArmAnnotation]:
     """Render ``n_clips`` random clips of a ``links``-link demonstrator (seeds from
     ``first_seed``) and label ``IMAGES_PER_CLIP`` distinct frames of each with the true
     shoulder, elbow and wrist; the images go into the cache. ``rng_seed`` draws the
     clips' settings and frames. File names are ``<prefix>/c<seed>_f<frame>.png``.
+    ``randomise`` draws each clip's whole look too (`randomised_spec`); without it the
+    clips vary only as the env's scenarios do (the shipped dataset).
 
     The clips render here or as Ray tasks (``backend``, ``address``: `backends.fan_out`);
     the images come back to this process, are checked against their workers' hashes and
@@ -96,8 +166,9 @@ def generate_arms(links: int, n_clips: int, first_seed: int, rng_seed: int,
 
     rng = np.random.default_rng(rng_seed)
     jobs = []
+    sample = randomised_spec if randomise else _sample_spec
     for seed in range(first_seed, first_seed + n_clips):
-        spec = _sample_spec(links, seed, rng)
+        spec = sample(links, seed, rng)
         jobs.append((spec, tuple(np.sort(rng.choice(CLIP_FRAMES, IMAGES_PER_CLIP,
                                                     replace=False)).tolist())))
     rendered = {}
@@ -112,8 +183,7 @@ def generate_arms(links: int, n_clips: int, first_seed: int, rng_seed: int,
     arms: list[ArmAnnotation] = []
     for spec, frames in jobs:
         images, keypoints, digests = rendered[spec.seed]
-        fields = asdict(spec)
-        fields.pop("name")
+        fields = spec.record()
         for k, image, points, digest in zip(frames, images, keypoints, digests, strict=True):
             render = {"spec": fields, "frame_index": k, "sha256": _digest(image)}
             if render["sha256"] != digest:

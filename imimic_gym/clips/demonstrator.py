@@ -16,9 +16,9 @@ import math
 import numpy as np
 
 from imimic_gym.arms import fmt, link_frame_quat
-from imimic_gym.clips.scenarios import HUMAN_SEGMENTS, ClipSpec
+from imimic_gym.clips.scenarios import HUMAN_SEGMENTS, Appearance, ClipSpec
 
-__all__ = ["MOVING_GROUP", "keypoint_names", "scene_mjcf", "workspace"]
+__all__ = ["MOVING_GROUP", "camera_pose", "keypoint_names", "scene_mjcf", "workspace"]
 
 MOVING_GROUP = 1
 SHOULDER = np.array([0.21, -0.02, 1.42])  # the moving arm's shoulder, world frame
@@ -72,14 +72,22 @@ def workspace(spec: ClipSpec) -> tuple[np.ndarray, float]:
     return base + np.array([centre2d[0], 0.0, centre2d[1]]), radius
 
 
-def _materials() -> str:
+def _materials(appearance: Appearance | None) -> str:
+    if appearance is None:
+        wall, tile, skin, shirt, pants, floor = (
+            "0.78 0.8 0.84 1", "0.55 0.6 0.68 1", SKIN, SHIRT, PANTS, "0.45 0.42 0.4 1")
+    else:
+        wall, tile, skin, shirt, pants, floor = (
+            fmt((*colour, 1.0)) for colour in (appearance.wall, appearance.tile,
+                                               appearance.skin, appearance.shirt,
+                                               appearance.pants, appearance.floor))
     return f"""
-    <material name="wall" rgba="0.78 0.8 0.84 1"/>
-    <material name="tile" rgba="0.55 0.6 0.68 1"/>
-    <material name="skin" rgba="{SKIN}"/>
-    <material name="shirt" rgba="{SHIRT}"/>
-    <material name="pants" rgba="{PANTS}"/>
-    <material name="floor" rgba="0.45 0.42 0.4 1"/>
+    <material name="wall" rgba="{wall}"/>
+    <material name="tile" rgba="{tile}"/>
+    <material name="skin" rgba="{skin}"/>
+    <material name="shirt" rgba="{shirt}"/>
+    <material name="pants" rgba="{pants}"/>
+    <material name="floor" rgba="{floor}"/>
     <material name="table" rgba="0.3 0.27 0.25 1"/>
     <material name="servo" rgba="0.12 0.12 0.14 1"/>
     <material name="paper" rgba="0.98 0.98 0.98 1"/>
@@ -94,7 +102,11 @@ def _tiles(spec: ClipSpec) -> str:
         return ""
     tiles = []
     if spec.demonstrator != "servo":
-        size, (nx, nz) = 0.3, (14, 9)
+        if spec.appearance is None:
+            size, (nx, nz) = 0.3, (14, 9)
+        else:  # the same wall area, 4.2 m by 2.7 m, in tiles of the appearance's size
+            size = spec.appearance.tile_size
+            nx, nz = math.ceil(4.2 / size), math.ceil(2.7 / size)
         for i in range(nx):
             for k in range(nz):
                 if (i + k) % 2 == 0:
@@ -115,8 +127,9 @@ def _tiles(spec: ClipSpec) -> str:
 def _arm_chain(spec: ClipSpec, shoulder: np.ndarray) -> tuple[str, str]:
     """The arm as a chain (upper arm, forearm, hand) with n_links joints: the MJCF that
     opens its bodies, and the text that closes them."""
+    sleeves = spec.appearance is not None and spec.appearance.long_sleeves
     segments = [("upper_arm", HUMAN_SEGMENTS[0], 0.045, "shirt"),
-                ("forearm", HUMAN_SEGMENTS[1], 0.037, "skin"),
+                ("forearm", HUMAN_SEGMENTS[1], 0.037, "shirt" if sleeves else "skin"),
                 ("hand", HUMAN_SEGMENTS[2], 0.033, "skin")]
     s = shoulder
     first_joint = 1 if spec.n_links == 1 else 0
@@ -233,7 +246,7 @@ def _clutter(spec: ClipSpec, rng: np.random.Generator) -> str:
     if spec.background != "cluttered":
         return ""
     shapes = []
-    for i in range(7):
+    for i in range(7 if spec.appearance is None else spec.appearance.clutter):
         colour = fmt((*rng.uniform(0.15, 0.95, 3), 1.0))
         if spec.demonstrator != "servo":
             pos = (rng.uniform(-1.4, 1.6), 0.58, rng.uniform(0.4, 2.3))
@@ -247,15 +260,54 @@ def _clutter(spec: ClipSpec, rng: np.random.Generator) -> str:
     return "\n    ".join(shapes)
 
 
+def camera_pose(spec: ClipSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """The film camera of a person's scene: position (3,) m, its image-right and image-up
+    axes (3,) (unit, world frame) and its vertical field of view in degrees."""
+    if spec.demonstrator == "servo":
+        raise ValueError("camera_pose places the camera of a person's scene, not the servo's")
+    if spec.demonstrator == "human":  # the person's arm in the middle
+        look = np.array([0.3, 0.0, 1.35])
+    else:  # the hand, filmed closer: its workspace in the middle
+        centre, _ = workspace(spec)
+        look = np.array([centre[0], 0.0, centre[2]])
+    position = look - (0, spec.camera_distance, 0)
+    appearance = spec.appearance
+    if appearance is None:
+        return position, np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0]), 45.0
+    tilt = math.radians(appearance.camera_tilt)
+    position = position + np.array([appearance.camera_shift, 0.0, appearance.camera_height])
+    up = np.array([0.0, math.sin(tilt), math.cos(tilt)])  # pitched down by the tilt
+    return position, np.array([1.0, 0.0, 0.0]), up, appearance.fovy
+
+
+def _camera(spec: ClipSpec) -> str:
+    position, right, up, fovy = camera_pose(spec)
+    if spec.appearance is None:  # the text every named scenario's scene has always had
+        return (f'<camera name="film" pos="{fmt(position)}" xyaxes="1 0 0 0 0 1" '
+                f'fovy="45"/>')
+    return (f'<camera name="film" pos="{fmt(position)}" xyaxes="{fmt((*right, *up))}" '
+            f'fovy="{fovy:.12g}"/>')
+
+
+def _key_light(spec: ClipSpec) -> str:
+    """The directional key light of a person's scene."""
+    light = spec.lighting
+    if spec.appearance is None:
+        direction, tint = "-0.25 0.75 -1", np.ones(3)
+    else:
+        direction, tint = fmt(spec.appearance.light_direction), np.array(
+            spec.appearance.light_colour)
+    return (f'<light name="key" directional="true" pos="1 -3 4" dir="{direction}" '
+            f'diffuse="{fmt(0.7 * light * tint)}" ambient="{fmt(0.2 * light * tint)}" '
+            'specular="0.1 0.1 0.1" castshadow="false"/>')
+
+
 def scene_mjcf(spec: ClipSpec, rng: np.random.Generator) -> str:
     """MJCF of the whole scene for ``spec``. ``rng`` places the clutter."""
     centre, radius = workspace(spec)
     light = spec.lighting
     if spec.demonstrator != "servo":
-        # The person's arm, or (filmed closer) the hand's workspace, in the middle.
-        look = (np.array([0.3, 0.0, 1.35]) if spec.demonstrator == "human"
-                else np.array([centre[0], 0.0, centre[2]]))
-        camera = f'<camera name="film" pos="{fmt(look - (0, spec.camera_distance, 0))}" xyaxes="1 0 0 0 0 1" fovy="45"/>'
+        camera = _camera(spec)
         backdrop = (
             '<geom name="wall" type="box" pos="0 0.6 1.5" size="6 0.005 4" material="wall"/>\n'
             '    <geom name="floor" type="box" pos="0 0 -0.005" size="6 6 0.005" material="floor"/>'
@@ -263,7 +315,7 @@ def scene_mjcf(spec: ClipSpec, rng: np.random.Generator) -> str:
         body = _human_body(spec)
         board_offset, board_axis = np.array([0, -0.5, 0]), "xz"
         distractor_size = 0.08
-        light_el = f'<light name="key" directional="true" pos="1 -3 4" dir="-0.25 0.75 -1" diffuse="{fmt((0.7 * light,) * 3)}" ambient="{fmt((0.2 * light,) * 3)}" specular="0.1 0.1 0.1" castshadow="false"/>'
+        light_el = _key_light(spec)
     else:
         look = np.array([0.0, 0.05, 0.0])
         camera = f'<camera name="film" pos="{fmt((look[0], look[1], spec.camera_distance))}" xyaxes="1 0 0 0 1 0" fovy="45"/>'
@@ -297,7 +349,7 @@ def scene_mjcf(spec: ClipSpec, rng: np.random.Generator) -> str:
     <headlight ambient="{fmt((0.25 * light,) * 3)}" diffuse="{fmt((0.35 * light,) * 3)}" specular="0 0 0"/>
     <map znear="0.01"/>
   </visual>
-  <asset>{_materials()}
+  <asset>{_materials(spec.appearance)}
   </asset>
   <worldbody>
     {light_el}

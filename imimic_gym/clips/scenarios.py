@@ -11,7 +11,7 @@ from typing import Any, Literal
 from imimic_gym.arms import MAX_LINKS, ArmSpec, Control, Plane
 from imimic_gym.clips.motion import MOTION_PROFILES, MotionProfile
 
-__all__ = ["SCENARIOS", "ClipSpec", "get_scenario", "scenario_names"]
+__all__ = ["SCENARIOS", "Appearance", "ClipSpec", "get_scenario", "scenario_names"]
 
 Demonstrator = Literal["human", "servo", "hand"]
 Background = Literal["plain", "textured", "cluttered"]
@@ -23,6 +23,70 @@ SERVO_LINK = 0.105  # the paper's paper link, 10.5 cm
 # The hand (paper experiment 4): forearm with palm, thumb, index finger (m).
 HAND_LINKS = (0.33, 0.06, 0.08)
 DEG = math.pi / 180
+RGB = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Appearance:
+    """How a person's scene looks and is filmed, beyond `ClipSpec`'s own knobs: the
+    domain randomisation of the CNN's training set. The defaults are the scene that a
+    spec without an appearance renders (`ClipSpec.appearance` None).
+
+    Colours are linear RGB in [0, 1]; lengths in metres, angles in degrees.
+
+    Attributes:
+        skin, shirt, pants: the person's colours.
+        long_sleeves: the moving forearm in the shirt's colour instead of bare skin.
+        wall, tile, floor: the backdrop's colours (``tile``: its checkerboard, drawn when
+            the spec's background is textured or cluttered).
+        tile_size: the side of a backdrop tile.
+        clutter: how many shapes a cluttered background has on its wall.
+        light_direction: the key light's direction (world x, y, z; the camera looks
+            along +y, z is up).
+        light_colour: multiplies the key light's diffuse and ambient colour.
+        camera_height: the camera raised (negative: lowered) from its default place.
+        camera_tilt: the camera pitched down (negative: up) from horizontal.
+        camera_shift: the camera moved sideways (+: to the image's right), so the person
+            sits further left in the frame.
+        fovy: the camera's vertical field of view.
+    """
+
+    skin: RGB = (0.87, 0.67, 0.53)
+    shirt: RGB = (0.22, 0.36, 0.66)
+    pants: RGB = (0.2, 0.2, 0.25)
+    long_sleeves: bool = False
+    wall: RGB = (0.78, 0.8, 0.84)
+    tile: RGB = (0.55, 0.6, 0.68)
+    floor: RGB = (0.45, 0.42, 0.4)
+    tile_size: float = 0.3
+    clutter: int = 7
+    light_direction: tuple[float, float, float] = (-0.25, 0.75, -1.0)
+    light_colour: RGB = (1.0, 1.0, 1.0)
+    camera_height: float = 0.0
+    camera_tilt: float = 0.0
+    camera_shift: float = 0.0
+    fovy: float = 45.0
+
+    def __post_init__(self) -> None:
+        for name in ("skin", "shirt", "pants", "wall", "tile", "floor", "light_colour",
+                     "light_direction"):
+            value = tuple(float(v) for v in getattr(self, name))  # JSON gives lists
+            object.__setattr__(self, name, value)
+            if len(value) != 3 or not all(math.isfinite(v) for v in value):
+                raise ValueError(f"appearance {name} must be 3 finite numbers, got {value}")
+            if name != "light_direction" and not all(0.0 <= v <= 1.0 for v in value):
+                raise ValueError(f"appearance {name} must be RGB in [0, 1], got {value}")
+        if not any(self.light_direction):
+            raise ValueError("appearance light_direction must not be zero")
+        if not (isinstance(self.clutter, int) and 0 <= self.clutter <= 100):
+            raise ValueError(f"appearance clutter must be 0 to 100 shapes, got {self.clutter!r}")
+        if not 0.02 <= self.tile_size <= 2.0:
+            raise ValueError(f"appearance tile_size must be 0.02-2 m, got {self.tile_size}")
+        if not 10.0 <= self.fovy <= 120.0:
+            raise ValueError(f"appearance fovy must be 10-120 degrees, got {self.fovy}")
+        if not -60.0 <= self.camera_tilt <= 60.0:
+            raise ValueError(f"appearance camera_tilt must be -60..60 degrees, got "
+                             f"{self.camera_tilt}")
 
 
 @dataclass(frozen=True)
@@ -48,6 +112,9 @@ class ClipSpec:
         fps: frames per second.
         n_frames: clip length in frames.
         seed: seeds the motion, occluder, distractor and clutter.
+        appearance: colours, backdrop, light and camera placement of a person's scene
+            (`Appearance`); None (the default) is the scene every named scenario uses,
+            and leaves the spec's `key` as it was before the field existed.
         name: the scenario's name; not part of the clip's identity.
     """
 
@@ -64,6 +131,7 @@ class ClipSpec:
     fps: float = 30.0
     n_frames: int = 150
     seed: int = 0
+    appearance: Appearance | None = None
     name: str = field(default="custom", compare=False)
 
     def __post_init__(self) -> None:
@@ -94,15 +162,31 @@ class ClipSpec:
             raise ValueError(f"camera_distance must be positive metres, got {self.camera_distance}")
         if not self.sway >= 0:
             raise ValueError(f"sway must be >= 0, got {self.sway}")
+        if isinstance(self.appearance, dict):  # a spec read back from JSON
+            object.__setattr__(self, "appearance", Appearance(**self.appearance))
+        if self.appearance is not None:
+            if not isinstance(self.appearance, Appearance):
+                raise ValueError(f"appearance must be an Appearance or None, got "
+                                 f"{type(self.appearance).__name__}")
+            if self.demonstrator == "servo":
+                raise ValueError("appearance dresses a person's scene; the servo "
+                                 "demonstrator has none")
 
     def replace(self, **changes: Any) -> ClipSpec:
         return replace(self, **changes)
 
-    def key(self) -> str:
-        """A content hash of everything that determines the pixels (not the name)."""
+    def record(self) -> dict[str, Any]:
+        """The fields that determine the pixels, JSON-ready: all but the name, and the
+        appearance only when set. ``ClipSpec(**spec.record()) == spec``."""
         fields = asdict(self)
         fields.pop("name")
-        return hashlib.sha256(json.dumps(fields, sort_keys=True).encode()).hexdigest()[:20]
+        if self.appearance is None:
+            fields.pop("appearance")
+        return fields
+
+    def key(self) -> str:
+        """A content hash of everything that determines the pixels (not the name)."""
+        return hashlib.sha256(json.dumps(self.record(), sort_keys=True).encode()).hexdigest()[:20]
 
     # Geometry that the demonstrator scene and the matching robot arm share.
     @property

@@ -129,7 +129,8 @@ def render_clip(spec: ClipSpec, progress: bool = True) -> Clip:
     # Keypoints on the moving links (all but a fixed upper arm), and a limb's width in
     # pixels, generously: the board is tested against the box around them.
     moving_keypoints = slice(1 if human and spec.n_links == 1 else 0, None)
-    limb_px = 0.12 / spec.camera_distance * (spec.height / 2) / np.tan(np.radians(45) / 2)
+    fovy = 45 if spec.appearance is None else spec.appearance.fovy
+    limb_px = 0.12 / spec.camera_distance * (spec.height / 2) / np.tan(np.radians(fovy) / 2)
     person = spec.demonstrator != "servo"  # a person (arm or hand), not the servo
     keypoint_margin, surface_margin = (0.08, 0.03) if person else (0.012, 0.008)
 

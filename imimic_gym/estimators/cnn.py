@@ -22,7 +22,8 @@ import json
 import math
 import pickle
 import zipfile
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -57,6 +58,7 @@ __all__ = [
     "load_model",
     "predict_keypoints",
     "save_model",
+    "torch_threads",
 ]
 
 DEFAULT_CHECKPOINTS = SHIPPED_CHECKPOINTS
@@ -238,6 +240,21 @@ def load_model(path: str | Path) -> CNNRefiner:
     return model.eval()
 
 
+@contextmanager
+def torch_threads(threads: int | None) -> Iterator[None]:
+    """Run the block with torch's intra-op thread count set to ``threads`` (None: as it
+    is), then set it back to what it was, so the caller's setting survives."""
+    if threads is None:
+        yield
+        return
+    before = torch.get_num_threads()
+    torch.set_num_threads(threads)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(before)
+
+
 def default_checkpoint(n_links: int) -> Path:
     """The shipped checkpoint for ``n_links`` (1 or 2): ``checkpoints/cnn_arm<n>.pt``."""
     if n_links not in (1, 2):
@@ -263,14 +280,23 @@ class CNNEstimator:
         refine: False skips the refiner. Only meaningful for a network whose CNN was trained
             alone: in the shipped ones CNN and refiner were trained together, and the CNN's
             output is the refiner's input, not pixel coordinates.
+        threads: torch's CPU threads while it reads a frame (the previous count is set
+            back after each frame); None leaves torch's own setting. One by default: a
+            60x80 frame is too little work to share, and torch's default (every core)
+            made `imimic mimic` several times slower, fighting the decoder and the
+            simulator for the same cores.
     """
 
     def __init__(self, n_links: int = 1, checkpoint: str | Path | None = None,
                  fps: float = 30.0, reference_direction: float = -math.pi / 2,
-                 robot: mujoco.MjModel | None = None, refine: bool = True) -> None:
+                 robot: mujoco.MjModel | None = None, refine: bool = True,
+                 threads: int | None = 1) -> None:
         if n_links not in (1, 2):
             raise ValueError(f"the CNN estimates 1 or 2 links, got n_links={n_links}")
+        if threads is not None and not (isinstance(threads, int) and threads >= 1):
+            raise ValueError(f"threads must be a positive integer or None, got {threads!r}")
         self.n_links, self.fps, self.refine = n_links, float(fps), refine
+        self.threads = threads
         self.reference_direction = reference_direction
         self.model = load_model(checkpoint or default_checkpoint(n_links))
         self.torque_model = TorqueModel(robot) if robot is not None else None
@@ -286,7 +312,8 @@ class CNNEstimator:
             got = (f"{frame.shape} {frame.dtype}" if isinstance(frame, np.ndarray)
                    else type(frame).__name__)
             raise ValueError(f"CNNEstimator takes (H, W, 3) uint8 RGB frames, got {got}")
-        keypoints = predict_keypoints(self.model, [frame], refine=self.refine)[0]
+        with torch_threads(self.threads):
+            keypoints = predict_keypoints(self.model, [frame], refine=self.refine)[0]
         if not np.all(np.isfinite(keypoints)):
             keypoints = np.zeros((3, 2))  # a diverged network must not emit NaN
         angles = keypoints_to_angles(keypoints, self.n_links, self.reference_direction)

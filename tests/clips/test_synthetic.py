@@ -112,3 +112,27 @@ def test_depth_matches_the_camera_distance() -> None:
 def test_resolution_knob() -> None:
     clip = render_clip(get_scenario("default", n_frames=2, height=120, width=160), progress=False)
     assert clip.frames.shape == (2, 120, 160, 3)
+
+
+def test_an_existing_scenario_renders_as_before_appearance_existed() -> None:
+    """Key and first frame of a named scenario, computed on main before
+    `ClipSpec.appearance` existed (the shipped dataset's images are checked the same way
+    in test_annotations.py, against the SHA-256 each record holds)."""
+    import hashlib
+
+    spec = get_scenario("exp1-noisy-fast", n_frames=2)
+    clip = render_clip(spec, progress=False)
+    assert spec.key() == "f114dadf38b33eadd544"
+    assert hashlib.sha256(clip.frames[0].tobytes()).hexdigest() == (
+        "9166024bf5eca03b6f1d21b4514e24d39a0aa45b8f2833cfdd1973fdec07de57")
+
+
+@pytest.mark.parametrize("name", ["exp1-noisy-fast", "chain-2", "exp4-hand"])
+def test_the_default_appearance_is_the_scene_without_one(name: str) -> None:
+    from imimic_gym.clips.scenarios import Appearance
+
+    spec = get_scenario(name, n_frames=2)
+    plain = render_clip(spec, progress=False)
+    dressed = render_clip(spec.replace(appearance=Appearance()), progress=False)
+    assert np.array_equal(plain.frames, dressed.frames)
+    assert np.array_equal(plain.truth.keypoints, dressed.truth.keypoints)

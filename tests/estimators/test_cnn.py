@@ -140,3 +140,37 @@ def test_shipped_checkpoints_load_and_see_the_arm() -> None:
     assert angle_rmse_deg(angles, clip.truth.angles) < 15.0
     assert all(np.isfinite(e.omega).all() and e.trust == 1.0 for e in estimates)
     assert estimates[-1].keypoints.shape == (2, 2)
+
+
+@pytest.mark.parametrize(("threads", "during"), [(None, None), (1, 1), (2, 2)])
+def test_the_cnn_reads_a_frame_on_its_own_threads_and_sets_torch_back(
+        monkeypatch: pytest.MonkeyPatch, threads: int | None, during: int | None) -> None:
+    """The registry's ``threads`` parameter (default 1) holds while the network runs;
+    afterwards torch's thread count is what the caller had set."""
+    from imimic_gym.estimators.registry import build_estimator
+    from imimic_gym.estimators.types import EstimatorContext
+
+    context = EstimatorContext(fps=30.0, link_parents=(-1,), joint_ranges=((0.0, 2.0),),
+                               reference_direction=0.0)
+    params = {} if threads == 1 else {"threads": threads}  # 1 is the default
+    estimator = build_estimator("cnn", context, **params)
+    assert estimator.threads == threads
+    seen = []
+    forward = estimator.model.forward
+    monkeypatch.setattr(estimator.model, "forward",
+                        lambda *a, **k: seen.append(torch.get_num_threads()) or forward(*a, **k))
+    before = torch.get_num_threads()
+    caller = 3 if before != 3 else 4
+    torch.set_num_threads(caller)
+    try:
+        estimate = estimator.update(np.zeros((60, 80, 3), dtype=np.uint8))
+        assert torch.get_num_threads() == caller
+    finally:
+        torch.set_num_threads(before)
+    assert seen == [caller if during is None else during]
+    assert np.all(np.isfinite(estimate.angles))
+
+
+def test_a_bad_thread_count_is_named() -> None:
+    with pytest.raises(ValueError, match="threads must be a positive integer or None, got 0"):
+        CNNEstimator(n_links=1, threads=0)
