@@ -113,20 +113,26 @@ def sweep(quick: bool) -> dict[str, Any]:
 
 
 def render_clips(quick: bool) -> dict[str, Any]:
+    """Clips rendered into empty caches, here and as Ray tasks, at two batch sizes: the
+    difference between them is the cost of a clip once the batch is under way, the rest
+    the fixed cost of a batch (Ray's start, its workers' imports)."""
     spec = get_scenario("default")
-    specs = [spec.replace(seed=FIRST_SEED + k) for k in range(2 if quick else 8)]
-    out: dict[str, Any] = {"clips": len(specs), "frames": spec.n_frames,
-                           "size": [spec.height, spec.width]}
+    sizes = (2, 4) if quick else (8, 48)
+    out: dict[str, Any] = {"sizes": list(sizes), "frames": spec.n_frames,
+                           "size": [spec.height, spec.width], "seconds": {}}
     for backend in ("local", "ray"):
-        with tempfile.TemporaryDirectory() as cache:
-            os.environ["IMIMIC_CACHE_DIR"] = cache
-            start = time.perf_counter()
-            done = list(fan_out(warm_clip, specs, backend=backend))
-            out[f"{backend}_s"] = time.perf_counter() - start
-            if not all(o.ok for o in done):
-                raise RuntimeError([o.error for o in done if not o.ok])
-            out["clip_bytes"] = done[0].value["bytes"]
-        print(f"rendering {len(specs)} clips, {backend}: {out[f'{backend}_s']:.1f} s")
+        for count in sizes:
+            specs = [spec.replace(seed=FIRST_SEED + k) for k in range(count)]
+            with tempfile.TemporaryDirectory() as cache:
+                os.environ["IMIMIC_CACHE_DIR"] = cache
+                start = time.perf_counter()
+                done = list(fan_out(warm_clip, specs, backend=backend))
+                seconds = time.perf_counter() - start
+                if not all(o.ok for o in done):
+                    raise RuntimeError([o.error for o in done if not o.ok])
+                out["clip_bytes"] = done[0].value["bytes"]
+            out["seconds"][f"{backend}_{count}"] = seconds
+            print(f"rendering {count} clips, {backend}: {seconds:.1f} s", flush=True)
     return out
 
 
@@ -154,9 +160,9 @@ def render(data: dict[str, Any]) -> str:
 
 Command: `.venv/bin/python benchmarks/run.py scaleout` (JSON:
 `benchmarks/results/scaleout.json`; this section is rendered from it). Machine:
-{m['cpu']}, {cores} cores; Ray is a local one of {cores} CPUs, started inside the timed
-region. Wall times of one run each; the ratio is Ray's time over the serial time of the
-same cells in the same run (target: at most {data['target_ratio']}).
+{m['cpu']}, {cores} cores; Ray is a local one of {cores} CPUs. Wall times of one run each;
+the ratio is Ray's time over the serial time of the same cells in the same run (target:
+at most {data['target_ratio']}).
 {quick}"""]
     s = data.get("sweep")
     if s:
@@ -168,10 +174,21 @@ same cells in the same run (target: at most {data['target_ratio']}).
                 f"{verdict(r['started'])} | {verdict(r['running'])} | "
                 f"{'yes' if r['started']['identical'] and r['running']['identical'] else '**no**'}"
                 " |" for r in s["runs"]]
-        warm = [r for r in s["runs"] if r["cache"] == "warm"]
-        per_cell = warm[0]["serial_s"] / warm[0]["cells"]
+        warm = sorted((r for r in s["runs"] if r["cache"] == "warm"), key=lambda r: r["cells"])
         cores = data["machine"]["cores"]
-        overhead = [r["started"]["ray_s"] - r["serial_s"] / cores for r in warm]
+        per_cell = warm[-1]["serial_s"] / warm[-1]["cells"]
+        # Ray's time beyond a perfect split of the serial time, as fixed + per cell.
+        extra = [(r["cells"], r["started"]["ray_s"] - r["serial_s"] / cores) for r in warm]
+        (n0, e0), (n1, e1) = extra[0], extra[-1]
+        extra_per_cell = (e1 - e0) / (n1 - n0) if n1 > n0 else 0.0
+        fixed = e0 - n0 * extra_per_cell
+        room = data["target_ratio"] * per_cell - per_cell / cores - extra_per_cell
+        needed = f"about {fixed / room:.0f} such cells" if room > 0 else "no number of cells"
+        cold = [r for r in s["runs"] if r["cache"] == "cold"]
+        cold_text = "; ".join(
+            f"a sweep of {r['cells']} cells that renders its clips, as over a fresh pool, "
+            f"{'reaches' if r['started']['met'] else 'misses'} it "
+            f"({r['started']['ratio']:.2f})" for r in cold)
         out.append(f"""### Sweeps
 
 {', '.join(f'`{x}`' for x in s['scenarios'])} x DON with the
@@ -188,31 +205,44 @@ a sweep over a fresh pool. Target: Ray's time at most {data['target_ratio']} of 
 |---|---|---|---|---|---|---|---|
 """ + "\n".join(rows) + f"""
 
-A cell on cached clips costs {per_cell:.2f} s here. A Ray the sweep starts took
-{' and '.join(f'{o:.1f} s' for o in overhead)} more than a perfect split of the serial
-time over {cores} cores on the cached runs: its start and each worker's imports (torch
-and the policy for the learned controller) are paid once per sweep, so a sweep of 24 such
-cheap cells cannot gain from it on {cores} cores, and the bigger the sweep the nearer the
-ratio comes to 1 / cores.""")
+A cell on cached clips costs {per_cell:.2f} s here. Beyond a perfect split of the serial
+time over {cores} cores, a Ray the sweep starts took {e0:.1f} s with {n0} cached cells and
+{e1:.1f} s with {n1}: about {fixed:.1f} s once (Ray's start and each worker's imports:
+torch and the policy for the learned controller; a Ray already running saves only its
+own start, since every new job starts its workers) and {1000 * extra_per_cell:.0f} ms a
+cell. By that arithmetic a cached sweep of cells this cheap reaches the target from
+{needed}; {cold_text}.""")
     r = data.get("render")
     if r:
-        per_clip = r["local_s"] / r["clips"]
-        efficiency = r["local_s"] / (cores * r["ray_s"])
+        small, big = r["sizes"]
+        t = r["seconds"]
+        serial = (t[f"local_{big}"] - t[f"local_{small}"]) / (big - small)
+        on_ray = (t[f"ray_{big}"] - t[f"ray_{small}"]) / (big - small)
+        fixed = t[f"ray_{small}"] - small * on_ray
+        efficiency = serial / (cores * on_ray)
         mb = r["clip_bytes"] / 1e6
         nodes = (1, 10, 50)
-        hours = [10_000 * per_clip / (n * cores * efficiency) / 3600 for n in nodes]
+        hours = [(fixed + 10_000 * serial / (n * cores * efficiency)) / 3600 for n in nodes]
+        rows = [f"| {count} | {t[f'local_{count}']:.1f} | {t[f'ray_{count}']:.1f} |"
+                for count in (small, big)]
         out.append(f"""### Rendering clips, and the cost of 10,000
 
-{r['clips']} clips of {r['frames']} frames at {r['size'][1]}x{r['size'][0]} (RGB, depth and
-truth; {mb:.0f} MB each in the cache): {r['local_s']:.1f} s here, one after another
-({per_clip:.2f} s a clip), {r['ray_s']:.1f} s as Ray tasks on {cores} CPUs: a parallel
-efficiency of {efficiency:.2f} (serial time / (CPUs x Ray time)).
+Clips of {r['frames']} frames at {r['size'][1]}x{r['size'][0]} (RGB, depth and truth;
+{mb:.0f} MB each in the cache) rendered into empty caches, here one after another and as
+Ray tasks on {cores} CPUs (`imimic cache --warm ... --backend ray`), in batches of
+{small} and {big}:
 
-At {per_clip:.2f} s a clip per CPU and that efficiency, 10,000 clips take
-10,000 x {per_clip:.2f} / (N x {cores} x {efficiency:.2f}) s on N nodes like this one:
-{', '.join(f'{h:.2f} h on {n}' for h, n in zip(hours, nodes, strict=True))}, and
+| clips | here (s) | Ray (s) |
+|---|---|---|
+""" + "\n".join(rows) + f"""
+
+Between the two batches a clip costs {serial:.2f} s here and {on_ray:.2f} s on Ray: a
+parallel efficiency of {efficiency:.2f} once a batch is under way (the time here over
+{cores} x the time on Ray); a batch on Ray also pays {fixed:.1f} s once (Ray's start, the
+workers' imports). So 10,000 clips take {fixed:.0f} + 10,000 x {serial:.2f} / (N x
+{cores} x {efficiency:.2f}) s on N nodes like this one: {', '.join(
+    f'{h:.2f} h on {n}' for h, n in zip(hours, nodes, strict=True))}, and
 {10_000 * mb / 1e3:.0f} GB of cache in all (each node's own cache holds the clips it
-rendered, unless `--cache-dir` names a shared folder; raise `IMIMIC_CACHE_MAX_GB` to
-keep them). The efficiency on a real cluster also depends on its network and scheduler;
-this machine cannot measure more than one node.""")
+rendered, unless `--cache-dir` names a shared folder; raise `IMIMIC_CACHE_MAX_GB` to keep
+them). A real cluster adds its network and scheduler, which one machine cannot measure.""")
     return "\n\n".join(out) + "\n"
