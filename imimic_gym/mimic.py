@@ -27,6 +27,8 @@ from __future__ import annotations
 
 import csv
 import json
+import queue
+import threading
 import time
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
@@ -43,7 +45,8 @@ from imimic_gym.estimators.registry import get_estimator
 from imimic_gym.rollout import Observer, Step, Trajectory, episode
 from imimic_gym.wrappers import EstimatorObservation, RegistryObservation
 
-__all__ = ["PREVIEW_HEIGHT", "CsvLog", "MimicLog", "ServoOut", "mimic_frames", "run_mimic"]
+__all__ = ["PREVIEW_HEIGHT", "CsvLog", "MimicLog", "ServoOut", "mimic_frames", "run_mimic",
+           "write_behind"]
 
 # Rows of mimic.mp4 for taller footage: drawing the robot and encoding a 3840x1080 side-by-
 # side video cost a 1080p run more than reading and estimating the footage did.
@@ -171,6 +174,42 @@ class _Progress:
             self.last_update = now
 
 
+def write_behind(path: Path, frames: Iterator[np.ndarray], fps: float,
+                 depth: int = 8) -> None:
+    """`write_video` on a thread of its own, fed through a queue of ``depth`` frames, so
+    that encoding a frame overlaps estimating the next (the encoder and the estimator
+    then share the two cores). The file is finalised whatever ends the run (Ctrl-C
+    included); an error of the writer's is raised here."""
+    done = object()
+    pending: queue.Queue = queue.Queue(maxsize=depth)
+    failed: list[BaseException] = []
+
+    def feed() -> Iterator[np.ndarray]:
+        while (frame := pending.get()) is not done:
+            yield frame
+
+    def write() -> None:
+        try:
+            write_video(path, feed(), fps)
+        except BaseException as error:  # handed to the caller below
+            failed.append(error)
+            while pending.get() is not done:  # let the producer finish
+                pass
+
+    writer = threading.Thread(target=write, name="mimic.mp4 writer", daemon=True)
+    writer.start()
+    try:
+        for frame in frames:
+            pending.put(frame)
+            if failed:
+                break
+    finally:
+        pending.put(done)
+        writer.join()
+    if failed:
+        raise failed[0]
+
+
 def steady_rate(log: MimicLog) -> float:
     """Frames/s from the first frame done to the last: the start-up (the first decode,
     the renderer's GL context) is left out, as it is paid once however long a run is."""
@@ -228,9 +267,9 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
         rows = csv.writer(table)
         rows.writerow(csv_header(env.n))
         try:
-            write_video(out / "mimic.mp4",
-                        mimic_frames(env, controller, log, rows, servo, [show], realtime),
-                        clip.fps)
+            write_behind(out / "mimic.mp4",
+                         mimic_frames(env, controller, log, rows, servo, [show], realtime),
+                         clip.fps)
         except KeyboardInterrupt:
             ended = "stopped by Ctrl-C"
         finally:

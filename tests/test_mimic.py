@@ -239,3 +239,33 @@ def test_by_default_mimic_finds_the_person_holds_when_they_leave_and_picks_them_
     assert np.median(error) < 30.0 and np.ptp(robot[40:]) > math.radians(10.0)
     summary = json.loads((out / "mimic.json").read_text())
     assert summary["estimator"] == "pose" and summary["frames_without_reading"] >= 20
+
+
+def test_the_writer_thread_keeps_what_was_written_and_hands_back_its_errors(tmp_path) -> None:
+    """`write_behind`: a run cut short (Ctrl-C) still leaves a playable file of the
+    frames made so far; a frame the writer cannot take is an error in the caller."""
+    import cv2
+
+    from imimic_gym.mimic import write_behind
+
+    def frames(n: int, stop: BaseException | None = None):
+        for i in range(n):
+            yield np.full((32, 48, 3), 10 * i, dtype=np.uint8)
+        if stop is not None:
+            raise stop
+
+    with pytest.raises(KeyboardInterrupt):
+        write_behind(tmp_path / "cut.mp4", frames(12, KeyboardInterrupt()), 30.0, depth=2)
+    capture = cv2.VideoCapture(str(tmp_path / "cut.mp4"))
+    try:
+        assert int(capture.get(cv2.CAP_PROP_FRAME_COUNT)) == 12
+    finally:
+        capture.release()
+
+    def mixed():
+        yield np.zeros((32, 48, 3), np.uint8)
+        for _ in range(20):
+            yield np.zeros((16, 16, 3), np.uint8)  # a different size: the writer refuses
+
+    with pytest.raises(ValueError, match="earlier frames"):
+        write_behind(tmp_path / "bad.mp4", mixed(), 30.0, depth=2)
