@@ -10,6 +10,7 @@ from typing import Any, Literal
 
 from imimic_gym.arms import MAX_LINKS, ArmSpec, Control, Plane
 from imimic_gym.clips.motion import MOTION_PROFILES, MotionProfile
+from imimic_gym.clips.types import Clip
 
 __all__ = ["SCENARIOS", "Appearance", "ClipSpec", "get_scenario", "scenario_names"]
 
@@ -288,3 +289,17 @@ def get_scenario(name: str, **overrides: Any) -> ClipSpec:
     if name not in SCENARIOS:
         raise ValueError(f"unknown scenario {name!r}; valid names: {', '.join(scenario_names())}")
     return SCENARIOS[name].replace(**overrides) if overrides else SCENARIOS[name]
+
+
+def robot_for_clip(clip: Clip, control: Control = "position") -> ArmSpec:
+    """A robot matching ``clip``: its demonstrator's arm, with the reference direction
+    and joint ranges of ``clip.meta`` where the clip states them (recorded video)."""
+    arm = ClipSpec(demonstrator=clip.meta.get("demonstrator", "human"),
+                   n_links=clip.n_links).robot_arm(control)
+    changes: dict[str, Any] = {}
+    if "reference_direction" in clip.meta:
+        changes["reference_direction"] = float(clip.meta["reference_direction"])
+    if "joint_ranges" in clip.meta:
+        changes["joint_ranges"] = tuple((float(lo), float(hi))
+                                        for lo, hi in clip.meta["joint_ranges"])
+    return replace(arm, **changes) if changes else arm

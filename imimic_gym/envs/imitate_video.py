@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -17,7 +16,7 @@ from gymnasium.utils import EzPickle
 
 from imimic_gym.arms import ArmSpec, Control, build_arm_model
 from imimic_gym.clips.cache import load_clip
-from imimic_gym.clips.scenarios import ClipSpec, get_scenario
+from imimic_gym.clips.scenarios import ClipSpec, get_scenario, robot_for_clip
 from imimic_gym.clips.types import Clip, depth_to_frame
 from imimic_gym.envs.arguments import check_arguments
 from imimic_gym.estimators.types import Estimate, EstimatorContext
@@ -41,20 +40,6 @@ _BAD_QACC = int(mujoco.mjtWarning.mjWARN_BADQACC)
 class SimulationUnstableError(RuntimeError):
     """MuJoCo found a non-finite or huge joint acceleration during a step and reset the arm
     to its start pose: the arm's motors are too strong for its links at this step size."""
-
-
-def clip_arm(clip: Clip, control: Control) -> ArmSpec:
-    """A robot matching ``clip``: its demonstrator's arm, with the reference direction
-    and joint ranges of ``clip.meta`` where the clip states them (recorded video)."""
-    arm = ClipSpec(demonstrator=clip.meta.get("demonstrator", "human"),
-                   n_links=clip.n_links).robot_arm(control)
-    changes: dict[str, Any] = {}
-    if "reference_direction" in clip.meta:
-        changes["reference_direction"] = float(clip.meta["reference_direction"])
-    if "joint_ranges" in clip.meta:
-        changes["joint_ranges"] = tuple((float(lo), float(hi))
-                                        for lo, hi in clip.meta["joint_ranges"])
-    return replace(arm, **changes) if changes else arm
 
 
 class ImitateVideoEnv(gym.Env, EzPickle):
@@ -195,7 +180,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
                                  f"from {scenario.meta.get('path')}: leave them None")
             self._fixed_clip = scenario.resized(height, width)
             self.clip_seeds: tuple[int, ...] = (int(scenario.meta.get("seed", 0)),)
-            arm = clip_arm(scenario, control)
+            arm = robot_for_clip(scenario, control)
         else:
             overrides = {k: v for k, v in (("n_links", n_links), ("width", width),
                          ("height", height), ("n_frames", n_frames)) if v is not None}
