@@ -36,7 +36,7 @@ def estimator_context(env: gym.Env) -> EstimatorContext:
 
 
 def draw_estimate(picture: np.ndarray, estimate: Estimate,
-                  parents: tuple[int, ...] | None = None) -> np.ndarray:
+                  parents: tuple[int, ...] | None = None, scale: float = 1.0) -> np.ndarray:
     """A copy of ``picture`` (H, W', 3) uint8 RGB with ``estimate`` drawn on it: its
     keypoints (input pixels, (x, y): the root pivot, then each link's tip) joined as links
     in yellow, a dot at each joint, and a line of text with the angles (deg) and eta;
@@ -44,14 +44,16 @@ def draw_estimate(picture: np.ndarray, estimate: Estimate,
 
     ``parents``: each link's parent link (-1: the root pivot), as `ArmSpec.link_parents`;
     None for a chain. A link is drawn from its parent's tip, so the hand's thumb and index
-    finger both start at the wrist."""
+    finger both start at the wrist. ``scale``: picture pixels per input pixel (a preview
+    drawn smaller than the frames the estimator read)."""
     import cv2
 
     out = picture.copy()
     size = max(1.0, picture.shape[0] / 240)  # drawn the same at any resolution
     line, dot = max(2, round(2 * size)), max(4, round(4 * size))
     if estimate.keypoints is not None:
-        points = [(int(x), int(y)) for x, y in np.rint(estimate.keypoints).astype(np.int32)]
+        points = [(int(x), int(y))
+                  for x, y in np.rint(scale * estimate.keypoints).astype(np.int32)]
         n = len(points) - 1
         links = parents if parents is not None else tuple(range(-1, n - 1))
         for link, parent in enumerate(links[:n]):
@@ -62,9 +64,9 @@ def draw_estimate(picture: np.ndarray, estimate: Estimate,
     angles = " ".join(f"{np.degrees(q):+.0f}" for q in estimate.angles)
     text = f"estimate {angles} deg  eta {estimate.trust:.2f}"
     colour = (0, 230, 255) if estimate.predicted else (255, 220, 0)
-    origin, scale = (round(6 * size), round(16 * size)), 0.45 * size
+    origin, font = (round(6 * size), round(16 * size)), 0.45 * size
     for ink, width in (((0, 0, 0), round(3 * size)), (colour, max(1, round(size)))):
-        cv2.putText(out, text, origin, cv2.FONT_HERSHEY_SIMPLEX, scale, ink, width, cv2.LINE_AA)
+        cv2.putText(out, text, origin, cv2.FONT_HERSHEY_SIMPLEX, font, ink, width, cv2.LINE_AA)
     return out
 
 
@@ -114,6 +116,7 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
         self.observation_space = spaces.Dict(subspaces)
         self.last_estimate: Estimate | None = None
         self._parents = estimator_context(env).link_parents
+        self._frame_height = int(frame.shape[0])
 
     def reset(self, **kwargs: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         self.estimator.reset()
@@ -126,7 +129,9 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
         picture = cast("np.ndarray | None", self.env.render())  # render_mode="rgb_array"
         if picture is None or self.last_estimate is None:
             return picture
-        return draw_estimate(picture, self.last_estimate, self._parents)
+        # A preview drawn smaller than the frames (render_height) scales the keypoints.
+        return draw_estimate(picture, self.last_estimate, self._parents,
+                             scale=picture.shape[0] / self._frame_height)
 
     def observation(self, observation: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         self.last_estimate = self.estimator.update(observation["frame"])

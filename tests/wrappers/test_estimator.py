@@ -129,3 +129,33 @@ def test_a_tree_is_drawn_from_each_links_parent() -> None:
     chain = draw_estimate(np.zeros((240, 320, 3), np.uint8), estimate)
     x, y = np.rint((keypoints[2] + keypoints[3]) / 2).astype(int)
     assert chain[y, x].any()  # without parents: a chain, tip to tip
+
+
+class _Fixed:
+    """An estimator that reads a link from (100, 200) to (100, 120) in every frame."""
+
+    def reset(self) -> None:
+        pass
+
+    def update(self, frame: np.ndarray) -> Estimate:
+        zero = np.zeros(1)
+        return Estimate(zero, zero, zero, zero, 1.0,
+                        keypoints=np.array([[100.0, 200.0], [100.0, 120.0]]))
+
+
+def test_a_preview_smaller_than_the_frames_draws_the_link_where_the_arm_is() -> None:
+    """With render_height half the frames' height, the estimate's keypoints (input pixels)
+    are drawn at half their coordinates, on the arm, not off it (they were drawn unscaled,
+    off the picture, on a 1080p video's 540-row preview)."""
+    from imimic_gym.wrappers import EstimatorObservation
+
+    env = EstimatorObservation(gym.make("ImitateVideo-v0", scenario="exp2-servo", n_frames=5,
+                                        render_mode="rgb_array", render_height=120),
+                               _Fixed())
+    env.reset(seed=0)
+    picture = env.render()
+    assert picture.shape[0] == 120
+    yellow = (picture[..., 0] > 200) & (picture[..., 1] > 180) & (picture[..., 2] < 80)
+    assert yellow[62:98, 49:52].mean() > 0.8  # the link from (50, 100) to (50, 60)
+    assert not yellow[100:, 90:110].any()  # nothing where the unscaled link would start
+    env.close()
