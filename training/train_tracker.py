@@ -368,9 +368,13 @@ def search_grid(args: Args) -> list[dict[str, object]]:
             print(f"train_tracker.py: --search {entry!r}: expected KEY=V1,V2 with KEY one of "
                   f"{', '.join(sorted(kinds))}", file=sys.stderr)
             sys.exit(2)
-        kind = type(kinds[key]) if kinds[key] is not None else int
+        default = kinds[key]
+        # A tuple option (scenarios, val_seeds, net_arch) takes one value a trial.
+        kind = type(default[0]) if isinstance(default, tuple) else (
+            type(default) if default is not None else int)
         try:
-            axes.append([(key, kind(v)) for v in values.split(",")])
+            axes.append([(key, (kind(v),) if isinstance(default, tuple) else kind(v))
+                         for v in values.split(",")])
         except ValueError:
             print(f"train_tracker.py: --search {entry!r}: values must be {kind.__name__}",
                   file=sys.stderr)

@@ -129,3 +129,25 @@ def test_a_malformed_search_is_refused_before_training(tmp_path) -> None:
                                 timeout=60)
         assert result.returncode == 2 and message in result.stderr
         assert not list(tmp_path.rglob("*.pt"))
+
+
+def test_a_search_over_a_list_option_gives_each_trial_one_value() -> None:
+    """``--search val_seeds=900,901`` (a tuple option): two trials, one seed each, passed
+    on to each trial's command line as a list flag."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("train_tracker", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["train_tracker"] = module  # its dataclass looks itself up there
+    try:
+        spec.loader.exec_module(module)
+    finally:
+        del sys.modules["train_tracker"]
+    args = module.Args(search=("val_seeds=900,901", "seed=0,1"))
+    grid = module.search_grid(args)
+    assert grid == [{"val_seeds": (900,), "seed": 0}, {"val_seeds": (900,), "seed": 1},
+                    {"val_seeds": (901,), "seed": 0}, {"val_seeds": (901,), "seed": 1}]
+    argv = module.trial_argv(args, grid[3], Path("/tmp/run/trial_3"))
+    at = argv.index("--val-seeds")
+    assert argv[at + 1] == "901" and argv[at + 2].startswith("--")
+    assert argv[argv.index("--seed") + 1] == "1"
