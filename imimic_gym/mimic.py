@@ -128,9 +128,12 @@ class ServoOut:
 
     def __init__(self, servo: Any) -> None:
         self.servo = servo
+        self._inner: Any = None
 
     def on_step(self, env: gym.Env, step: Step) -> None:
-        inner = imitate_env(env)
+        if self._inner is None:  # the env under the wrappers, found once
+            self._inner = imitate_env(env)
+        inner = self._inner
         self.servo.send(inner.action_to_command(step.action) if inner.control == "position"
                         else step.obs["qpos"])
 

@@ -124,6 +124,7 @@ class TrajectoryLog:
         self.occlusion: list[float] = []
         self.trust: list[float] = []
         self.frames: list[np.ndarray] = []
+        self._trust_at: int | None = None
 
     def on_step(self, env: gym.Env, step: Step) -> None:
         self.fps = float(env.metadata["render_fps"])
@@ -140,8 +141,9 @@ class TrajectoryLog:
         self.occlusion.append(info["occlusion"])
         self.reward.append(step.reward)
         if "estimate" in obs:
-            trust_at = estimate_fields(len(obs["qpos"]))["trust"].start
-            self.trust.append(float(obs["estimate"][trust_at]))
+            if self._trust_at is None:  # the estimate's layout is fixed for the episode
+                self._trust_at = estimate_fields(len(obs["qpos"]))["trust"].start
+            self.trust.append(float(obs["estimate"][self._trust_at]))
 
     def trajectory(self) -> Trajectory:
         return Trajectory(
