@@ -55,7 +55,7 @@ def label_frames(frames: Iterable[np.ndarray], fps: float, arm: str = "auto",
     estimator.reset()
     keypoints, confidence, sides = [], [], []
     for i, frame in enumerate(frames):
-        reading = estimator.read(frame)
+        reading = estimator.read(frame, time_s=i / fps)
         if on_frame is not None:
             on_frame(i, frame)
         if reading is None:

@@ -87,11 +87,12 @@ class ArmChooser:
     """Which of a person's arms to follow: ``arm`` if it is "left" or "right", else the
     one that moves.
 
-    Motion is the forearm's image direction change (rad) between consecutive frames in
-    which both its elbow and wrist are confident, summed over the last ``window_s``.
-    It starts with the more confident forearm; the other arm takes over once it has moved
-    ``ratio`` times as much and at least ``min_motion`` rad in the window, so a still
-    arm's jitter never steals the choice from the moving one.
+    Motion is the forearm's image direction change (rad) between consecutive readings in
+    which both its elbow and wrist are confident, summed over the last ``window_s``
+    seconds of the video (however many frames were read in them). It starts with the
+    more confident forearm; the other arm takes over once it has moved ``ratio`` times as
+    much and at least ``min_motion`` rad in the window, so a still arm's jitter never
+    steals the choice from the moving one.
     """
 
     def __init__(self, fps: float, arm: str = "auto", window_s: float = 1.0,
@@ -100,33 +101,41 @@ class ArmChooser:
         if arm not in ("auto", "left", "right"):
             raise ValueError(f"arm must be 'auto', 'left' or 'right', got {arm!r}")
         self.arm, self.ratio, self.min_motion = arm, ratio, min_motion
-        self.min_confidence = min_confidence
-        self.window = max(2, round(window_s * fps))
+        self.min_confidence, self.fps = min_confidence, float(fps)
+        # Readings older than this many seconds leave the window (one frame's less than
+        # window_s, as a window of round(window_s * fps) frames).
+        self.window_s = (max(2, round(window_s * fps)) - 0.5) / fps
         self.reset()
 
     def reset(self) -> None:
         self.side: str | None = None if self.arm == "auto" else self.arm
-        self.motion: dict[str, deque[float]] = {
-            side: deque(maxlen=self.window) for side in ("left", "right")}
+        self.motion: dict[str, deque[tuple[float, float]]] = {
+            side: deque() for side in ("left", "right")}  # (time s, turn rad)
         self.direction: dict[str, float | None] = {"left": None, "right": None}
+        self.calls = 0
 
-    def __call__(self, body: BodyKeypoints) -> str:
-        """The side to follow in this frame (call once per frame, in order)."""
+    def __call__(self, body: BodyKeypoints, time_s: float | None = None) -> str:
+        """The side to follow in this reading (call once per reading, in order;
+        ``time_s``: its time in the video, None: one frame after the last)."""
+        now = self.calls / self.fps if time_s is None else time_s
+        self.calls += 1
         for side in ("left", "right"):
             points, confidence = body.arm(side)
+            motion = self.motion[side]
+            while motion and motion[0][0] <= now - self.window_s:
+                motion.popleft()
             if min(confidence[1], confidence[2]) < self.min_confidence:
                 self.direction[side] = None
-                self.motion[side].append(0.0)
                 continue
             dx, dy = points[2] - points[1]
             direction = math.atan2(-dy, dx)
             last = self.direction[side]
-            self.motion[side].append(0.0 if last is None
-                                     else abs(float(wrap_angle(direction - last))))
+            if last is not None:
+                motion.append((now, abs(float(wrap_angle(direction - last)))))
             self.direction[side] = direction
         if self.arm != "auto":
             return self.arm
-        moved = {side: sum(values) for side, values in self.motion.items()}
+        moved = {side: sum(turn for _, turn in values) for side, values in self.motion.items()}
         if self.side is None:  # the first frame: the more confident forearm (ties: right)
             seen = {side: float(body.arm(side)[1][1:].min()) for side in moved}
             self.side = max(seen, key=lambda side: (seen[side], side == "right"))
@@ -175,16 +184,18 @@ class PoseEstimator:
         self.path = PathEstimator(self.n_links, self.fps)
         self.angles = np.zeros(self.n_links)
         self.last: ArmReading | None = None
+        self.frame = 0  # frames seen since reset
 
-    def read(self, frame: np.ndarray, previous: np.ndarray | None = None
-             ) -> ArmReading | None:
+    def read(self, frame: np.ndarray, previous: np.ndarray | None = None,
+             time_s: float | None = None) -> ArmReading | None:
         """This frame's arm, or None where no person (or no confident arm) is seen.
         ``previous``: the (n,) angles of the frame before, if it had a reading: a
-        reading continues from them (`continue_within`)."""
-        body = self.model(frame)
+        reading continues from them (`continue_within`). ``time_s``: the frame's time in
+        the video (`PoseModel`), for a model that reads some frames only."""
+        body = self.model(frame, time_s)
         if body is None:
             return None
-        side = self.chooser(body)
+        side = self.chooser(body, time_s)
         keypoints, confidence = body.arm(side)
         if confidence.min() < self.min_confidence:
             return None
@@ -198,7 +209,8 @@ class PoseEstimator:
     def update(self, frame: np.ndarray) -> Estimate:
         """Take the next (H, W, 3) uint8 RGB frame and return the estimate for it."""
         previous = None if self.last is None else self.last.angles
-        return self.estimate(self.read(frame, previous))
+        self.frame += 1
+        return self.estimate(self.read(frame, previous, (self.frame - 1) / self.fps))
 
     def estimate(self, reading: ArmReading | None) -> Estimate:
         """The `Estimate` for a frame's reading (None: hold, trust 0)."""

@@ -1,26 +1,30 @@
-"""Pose-seeded DON (registry name ``pose-don``): the pose model places DON on the forearm,
-DON carries the forearm between pose frames.
+"""Pose-seeded DON (registry name ``pose-don``): the pose model places DON on the forearm
+and reads the arm every few frames; DON carries the forearm between those frames.
 
-The pose model (`pose.PoseEstimator.read`) costs some 17 ms a frame on 2 CPU cores; DON
-well under one on a small crop. So the pose model reads every ``pose_every``-th frame and
-hands DON what the paper's DON has to find by itself: its pivot (the elbow), its
-reference direction (the upper arm) and its working area, a square crop about the elbow
-of ``REACH`` forearm lengths a side, resized to ``CROP`` px (in a 1920x1080 frame a
-forearm is a few pixels of a whole frame at DON's 120 rows; on the crop it is half its
-height). DON runs on that crop every frame; between pose frames its reading, taken from
-the upper arm the pose model last saw, is the estimate.
+The pose model (`pose.PoseEstimator.read`) costs some 17-20 ms a frame on 2 CPU cores,
+DON about 1 ms on a small crop. So the pose model reads every ``pose_every``-th frame
+and no other while it sees the arm (every frame while it does not: nothing to carry);
+that bounds the cost per frame at about a fifth of the pose model's at the default 5.
 
-The pose model reads the frame instead when DON has no trusted reading (it needs
-``window`` frames of motion after a seed, paper layer 1). On each pose frame DON's pivot
-moves to the elbow the pose model sees (`DON.move_pivot`), keeping DON's frames. DON is
-seeded afresh on a pose frame when it has had twice its window and still has no trusted
-reading, when the elbow has moved off the crop's centre by over ``MOVE`` forearm
-lengths or the
-forearm's length has changed by over ``SCALE`` (the person moved), or when DON and the
-pose model disagree by over ``DISAGREE`` on a pose frame. Between pose frames a DON
-reading that turns the forearm by over ``MAX_STEP`` in a frame is not taken either: the
-pose model reads that frame. Nobody in view: trust 0, the
-angle held, as `PoseEstimator`.
+A pose frame's estimate is the pose model's angle. From it DON gets its pivot (the
+elbow), its reference direction (the upper arm) and its working area, a square crop
+about the elbow of ``REACH`` forearm lengths a side resized to ``CROP`` px (in a
+1920x1080 frame a forearm is a few pixels of a whole frame at DON's 120 rows; on the
+crop it is half its height). DON reads every frame of the crop. Between pose frames the
+estimate is the pose angle turned by as much as DON saw the forearm turn since (DON's
+own direction can be off by a steady bias: only its turns are used), counted from the
+pose frame or from the first frame since on which DON read the forearm; where DON has
+no trusted reading (eta below ``TRUST_FLOOR``, layer 5's prediction, or a turn over
+``MAX_STEP`` in a frame), the last estimate rolls on at the turn rate of the last two
+pose frames.
+
+On a pose frame DON's pivot moves to the elbow the pose model sees (`DON.move_pivot`,
+keeping DON's frames). DON is seeded afresh, on a new crop, when the elbow is over
+``MOVE`` forearm lengths off the crop's centre or the forearm's length changed by over
+``SCALE`` (the person moved), or when DON's turns carried the estimate over
+``DISAGREE`` away from the pose model's angle (DON followed something else). Nobody in
+view: trust 0, the angle held, as `PoseEstimator`. Why these values:
+``docs/decisions/pose-don.md``.
 """
 
 from __future__ import annotations
@@ -45,12 +49,15 @@ REACH = 3.2  # the crop's side in forearm lengths: the forearm fits whichever wa
 MIN_SIDE = 32.0  # input px: the smallest crop
 MOVE = 0.5  # elbow shift off the crop's centre, in forearm lengths, that re-seeds DON
 SCALE = 0.5  # relative change of the forearm's length that re-seeds DON
-DISAGREE = math.radians(20.0)  # DON against the pose model on a pose frame: re-seed
-TRUST_FLOOR = 0.5  # DON's eta below this: the pose model reads the frame
+DISAGREE = math.radians(20.0)  # DON's carried angle against the pose model's: re-seed
+TRUST_FLOOR = 0.5  # DON's eta below this: its reading is not used
 # DON's reading that turns the forearm further than this from the last frame's estimate
-# is not taken: the pose model reads the frame (an elbow at 450 deg/s turns 15 deg a
-# frame at 30 fps).
+# is not taken (an elbow at 450 deg/s turns 15 deg a frame at 30 fps).
 MAX_STEP = math.radians(15.0)
+# On a pose frame the estimate moves this share of the way from the angle carried by DON
+# (or rolled on) to the pose model's reading: the model's keypoints jitter from frame to
+# frame, DON's turns do not.
+GAIN = 0.7
 
 
 def _direction(start: np.ndarray, end: np.ndarray) -> float:
@@ -67,14 +74,15 @@ class PoseSeededDON:
         reference_direction: unused by one link (the upper arm is the reference); kept so
             the registry builds every estimator alike.
         arm, min_confidence: as `PoseEstimator`.
-        pose_every: the pose model reads at least every this many frames.
+        pose_every: the pose model reads every this many frames (every frame while it
+            sees no arm).
         window: DON's window N (frames).
         robot: the robot's MuJoCo model, for torques; None gives zero torque.
         model: a `PoseModel` to use (None: a new one, in video mode).
     """
 
     def __init__(self, fps: float = 30.0, reference_direction: float = -math.pi / 2,
-                 arm: str = "auto", min_confidence: float = 0.5, pose_every: int = 3,
+                 arm: str = "auto", min_confidence: float = 0.5, pose_every: int = 5,
                  window: int = 10, robot: mujoco.MjModel | None = None,
                  model: PoseModel | None = None) -> None:
         if not (isinstance(pose_every, int) and pose_every >= 1):
@@ -95,12 +103,20 @@ class PoseSeededDON:
         self.last: ArmReading | None = None  # the last pose reading
         self.reading = False  # the last frame had a reading (pose or DON)
         self.don: DON | None = None
-        self.seeded_at = 0  # the frame DON was last seeded on
         self.origin = np.zeros(2)  # the crop's top-left corner, input px
         self.side = 0.0  # the crop's side, input px
         self.seed_direction = 0.0  # DON's reference direction: the upper arm at seeding
         self.forearm = 0.0  # forearm length at seeding, input px
         self.pose_frames = 0  # frames the pose model read (speed bookkeeping)
+        # What gave the last estimate: "pose" (a pose frame), "don" (DON's turn), "rolled"
+        # (rolled on at the pose rate) or "none" (nobody in view: held, trust 0).
+        self.source = "none"
+        # (angle, DON's forearm direction) on the frame DON's turns are counted from
+        self.anchor: tuple[float, float] | None = None
+        self.rate = 0.0  # rad a frame: the turn between the last two pose frames
+        self.at_pose = 0.0  # rad: the estimate on the last pose frame
+        self.carried = False  # DON turned the estimate since the last pose frame
+        self.keypoints = np.zeros((2, 2))  # the last estimate's elbow and wrist, input px
 
     # Seeding ------------------------------------------------------------------------
     def _seed(self, frame: np.ndarray, reading: ArmReading) -> None:
@@ -111,7 +127,6 @@ class PoseSeededDON:
         self.side = max(REACH * self.forearm, MIN_SIDE)
         self.origin = elbow - self.side / 2
         self.seed_direction = _direction(shoulder, elbow)
-        self.seeded_at = self.frame
         self.don = DON(fps=self.fps, window=self.window, pivot=(CROP / 2, CROP / 2),
                        reference_direction=self.seed_direction, joint_range=ELBOW_RANGE)
         self.don.update(self._crop(frame))
@@ -138,57 +153,79 @@ class PoseSeededDON:
         self.frame += 1
         self.since_pose += 1
         don = self.don.update(self._crop(frame)) if self.don is not None else None
-        trusted = (don is not None and float(don.trust) >= TRUST_FLOOR
-                   and don.keypoints is not None)
-        if (trusted and don is not None and self.last is not None
-                and self.since_pose < self.pose_every):
-            angle = self._don_angle(don, self.last)
-            if self.reading and abs(float(wrap_angle(angle - self.angle))) <= MAX_STEP:
-                return self._from_don(don, angle)
+        direction = self._don_direction(don)
+        if self.reading and self.last is not None and self.since_pose < self.pose_every:
+            angle, turned = self._carried(direction)
+            self.source = "don" if turned else "rolled"
+            if turned and don is not None and don.keypoints is not None:
+                self.carried = True
+                return self._estimate(angle, min(float(don.trust), self.last.trust),
+                                      self.origin + don.keypoints * (self.side / CROP))
+            return self._estimate(angle, self.last.trust, self.keypoints)
         previous = np.array([self.angle]) if self.reading else None
-        reading = self.pose.read(frame, previous)
-        self.since_pose = 0
+        reading = self.pose.read(frame, previous, (self.frame - 1) / self.fps)
+        since, self.since_pose = self.since_pose, 0
         self.pose_frames += 1
+        self.source = "pose" if reading is not None else "none"
         if reading is None:
-            self.don, self.last = None, None
+            self.don, self.last, self.anchor = None, None, None
+            self.rate = 0.0
             return self._hold()
-        settled = self.frame - self.seeded_at > 2 * int(self.window)  # DON had its chance
-        if (self.don is None or self._moved(reading) or (settled and not trusted)
-                or (trusted and abs(float(wrap_angle(self._don_angle(don, reading)
-                                                     - reading.angles[0]))) > DISAGREE)):
+        angle = float(reading.angles[0])
+        same_arm = self.reading and self.last is not None and reading.side == self.last.side
+        reseed = self.don is None or self._moved(reading)
+        self.rate = 0.0
+        if same_arm:
+            predicted, turned = self._carried(direction)
+            surprise = float(wrap_angle(angle - predicted))
+            if abs(surprise) > DISAGREE:  # not jitter: the arm is where the model sees it
+                reseed = reseed or self.carried or turned  # DON's turns led elsewhere
+            else:  # the model's reading weighed against the carried estimate
+                angle = continue_within(predicted + GAIN * surprise, ELBOW_RANGE, self.angle)
+                self.rate = float(wrap_angle(angle - self.at_pose)) / since
+        if reseed:
             self._seed(frame, reading)
+            direction = None
         else:  # the same crop: DON's pivot follows the elbow the pose model sees
+            assert self.don is not None
             self.don.move_pivot(tuple((reading.keypoints[1] - self.origin) * CROP / self.side))
-        self.last = reading
-        return self._estimate(float(reading.angles[0]), reading.trust,
-                              reading.keypoints[1:])
+        self.last, self.carried, self.at_pose = reading, False, angle
+        self.anchor = None if direction is None else (angle, direction)
+        return self._estimate(angle, reading.trust, reading.keypoints[1:])
 
-    def _don_angle(self, don: Estimate | None, reading: ArmReading) -> float:
-        """DON's forearm direction as an angle from ``reading``'s upper arm (rad)."""
-        if don is None:
-            return math.inf
-        shoulder, elbow, _ = reading.keypoints
-        return float(wrap_angle(self.seed_direction + float(don.angles[0])
-                                - _direction(shoulder, elbow)))
+    def _don_direction(self, don: Estimate | None) -> float | None:
+        """DON's trusted image direction of the forearm this frame (rad), else None."""
+        if (don is None or float(don.trust) < TRUST_FLOOR or don.keypoints is None
+                or don.predicted):
+            return None
+        return float(wrap_angle(self.seed_direction + float(don.angles[0])))
 
-    def _from_don(self, don: Estimate, angle: float) -> Estimate:
-        """The estimate from DON's reading of this frame, ``angle`` about the last pose
-        frame's upper arm."""
-        assert don.keypoints is not None
-        angle = continue_within(angle, ELBOW_RANGE, self.angle)
-        keypoints = self.origin + don.keypoints * (self.side / CROP)
-        return self._estimate(angle, don.trust, keypoints)
+    def _carried(self, direction: float | None) -> tuple[float, bool]:
+        """This frame's angle carried on from the last estimate, and whether DON's reading
+        (its forearm ``direction``, None: no trusted reading) turned it. Where DON reads
+        the forearm: the angle at its anchor (the pose frame, or the first frame since on
+        which DON read) turned as far as DON saw the forearm turn since. Else the last
+        estimate rolled on at the turn rate between the last two pose frames."""
+        if direction is not None:
+            anchor = self.anchor if self.anchor is not None else (self.angle + self.rate,
+                                                                  direction)
+            angle = anchor[0] + float(wrap_angle(direction - anchor[1]))
+            if abs(float(wrap_angle(angle - self.angle))) <= MAX_STEP:
+                self.anchor = anchor
+                return continue_within(angle, ELBOW_RANGE, self.angle), True
+            self.anchor = None  # DON jumped: not the forearm
+        return continue_within(self.angle + self.rate, ELBOW_RANGE, self.angle), False
 
     def _estimate(self, angle: float, trust: float, keypoints: np.ndarray) -> Estimate:
         if not self.reading:
             self.path.reset()  # seen again: no velocity from the gap
-        self.angle, self.reading = angle, True
+        self.angle, self.reading, self.keypoints = angle, True, np.asarray(keypoints)
         self.path.update((angle,))
         angles, omega, alpha = np.array([angle]), self.path.omega(), self.path.alpha()
         torque = (self.torque_model(angles, omega, alpha) if self.torque_model is not None
                   else np.zeros(1))
         return Estimate(angles=angles, omega=omega, alpha=alpha, torque=torque,
-                        trust=min(max(trust, 0.0), 1.0), keypoints=np.asarray(keypoints))
+                        trust=min(max(trust, 0.0), 1.0), keypoints=self.keypoints)
 
     def _hold(self) -> Estimate:
         self.reading = False

@@ -10,6 +10,7 @@ how it is installed beside our numpy and OpenCV: `docs/decisions/pose-model.md`.
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass
 from typing import Any
@@ -27,6 +28,7 @@ KEYPOINTS = ("left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "le
              "right_wrist", "left_hip", "right_hip", "left_hand", "right_hand")
 # Their BlazePose landmark indices (the hand is the index finger's knuckle).
 _BLAZEPOSE = (11, 12, 13, 14, 15, 16, 23, 24, 19, 20)
+_LEGACY_STEP_US = 33333  # the legacy solution's own step between frames (as at 30 fps)
 
 
 class PoseModelMissingError(ImportError):
@@ -134,7 +136,13 @@ class PoseModel:
             self._graph.close()
             self._graph = None
 
-    def __call__(self, frame: np.ndarray) -> BodyKeypoints | None:
+    def __call__(self, frame: np.ndarray, time_s: float | None = None
+                 ) -> BodyKeypoints | None:
+        """One frame's person. ``time_s``: the frame's time in the video (s), increasing
+        from call to call; None takes the previous call's plus 1/30 s. In video mode the
+        model's filters (the landmarks' smoothing, the next frame's region) weigh motion by
+        the time between calls, so a video at another rate, or one read every few frames,
+        needs its real times."""
         if not (isinstance(frame, np.ndarray) and frame.dtype == np.uint8 and frame.ndim == 3
                 and frame.shape[2] == 3 and frame.shape[0] > 0 and frame.shape[1] > 0):
             got = (f"{frame.shape} {frame.dtype}" if isinstance(frame, np.ndarray)
@@ -142,6 +150,16 @@ class PoseModel:
             raise ValueError(f"PoseModel takes (H, W, 3) uint8 RGB frames, got {got}")
         if self._graph is None:
             self._start()
+        if time_s is not None:
+            # MediaPipe's timestamps are microseconds; the legacy solution stamps each frame
+            # one step after the last, so the first frame (time 0) gets one step. Set the
+            # last stamp so that this frame gets its own time.
+            last = self._graph._simulated_timestamp
+            if not (math.isfinite(time_s) and _LEGACY_STEP_US + round(time_s * 1e6) > last):
+                raise ValueError(f"PoseModel: frame times must increase from call to call, "
+                                 f"got {time_s!r} s after "
+                                 f"{(last - _LEGACY_STEP_US) / 1e6:g} s")
+            self._graph._simulated_timestamp = round(time_s * 1e6)
         h, w = frame.shape[:2]
         scale = max(h, w) / self.max_side
         if scale > 1:

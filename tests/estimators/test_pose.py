@@ -52,6 +52,24 @@ def test_a_frame_without_a_person_is_a_clean_none() -> None:
         model(np.zeros((0, 10, 3), np.uint8))
 
 
+def test_frame_times_reach_the_models_filters_and_must_increase(person_clip) -> None:
+    """In video mode each frame is stamped with its own time (MediaPipe's filters weigh
+    motion by it), not the legacy solution's fixed 1/30 s step."""
+    model = PoseModel(video=True)
+    step = 33333  # us: the legacy solution's stamp of the first frame, and its step
+    for t in (0, 5, 10):  # every fifth frame of a 30 fps clip
+        model(person_clip.frames[t], t / 30.0)
+        assert model._graph._simulated_timestamp == step + round(t / 30.0 * 1e6)
+    with pytest.raises(ValueError, match="frame times must increase"):
+        model(person_clip.frames[11], 10 / 30.0)
+    with pytest.raises(ValueError, match="frame times must increase"):
+        model(person_clip.frames[11], math.nan)
+    model.reset()  # a new video starts at time 0 again
+    model(person_clip.frames[0], 0.0)
+    model(person_clip.frames[1])  # no time: one step on, as before
+    assert model._graph._simulated_timestamp == 2 * step
+
+
 def test_a_copied_or_pickled_model_is_a_fresh_one_with_the_same_settings() -> None:
     model = PoseModel(video=False, min_confidence=0.4, max_side=320)
     for twin in (copy.deepcopy(model), pickle.loads(pickle.dumps(model))):
@@ -76,7 +94,7 @@ class ScriptedModel:
     def reset(self) -> None:
         self.i = 0
 
-    def __call__(self, frame):
+    def __call__(self, frame, time_s=None):
         body = self.bodies[self.i]
         self.i += 1
         return body
@@ -111,6 +129,24 @@ def test_the_arm_that_moves_is_chosen() -> None:
     assert ArmChooser(fps=30.0, arm="right")(body(left_forearm=0)) == "right"
     with pytest.raises(ValueError, match="arm must be 'auto', 'left' or 'right'"):
         ArmChooser(fps=30.0, arm="both")
+
+
+def test_the_arms_motion_is_summed_over_seconds_not_readings() -> None:
+    """Read every fifth frame (as pose-seeded DON reads), the window is still one second:
+    the arm that stopped a second ago no longer counts, whichever rate the readings
+    come at."""
+    def switch_time(every: int) -> float:
+        chooser = ArmChooser(fps=30.0)
+        for frame in range(0, 150, every):
+            t = frame / 30.0
+            right = -90 + 40 * math.sin(3 * t) if t < 2 else -90.0  # waves, then stops
+            left = -90 + 40 * math.sin(3 * t) if t >= 2.5 else -90.0  # still, then waves
+            if chooser(body(left_forearm=left, right_forearm=right), t) == "left":
+                return t
+        return math.inf
+
+    every_frame, fifth = switch_time(1), switch_time(5)
+    assert 2.5 < every_frame < 3.5 and abs(fifth - every_frame) <= 5 / 30.0
 
 
 def test_angles_follow_the_convention_and_nobody_means_hold() -> None:

@@ -1,0 +1,128 @@
+"""Pose-seeded DON on DEVELOPMENT clips, for choosing how it carries the forearm between
+pose frames without touching real footage (which is for evaluation only).
+
+The clips: a person drawn at random (`clips.dataset.randomised_spec`: clothing, backdrop,
+light, camera place, sway; smooth random elbow motion), seeds 700-711 by default (the
+development block), 300 frames rendered at 540x960 and upscaled to 1920x1080, as a
+1080p video would reach `imimic mimic`. The pose model is an oracle: the clip's true
+shoulder, elbow and wrist plus Gaussian noise of ``--noise`` px a coordinate, drawn once
+per frame (so the every-frame reference and pose-seeded DON see the same reading on the
+same frame). MediaPipe itself misses or flips our mannequin's arm on many frames, so
+its errors there would drown what is being chosen: what DON carries between pose frames
+and how the pose readings are weighed.
+
+Per setting: the RMSE (deg, every frame, mean over clips) of pose-seeded DON against the
+oracle read on every frame (what the `real` suite compares against, there with MediaPipe)
+and against the exact truth, the largest error, and the frames the oracle read. Any
+module constant of `estimators/pose_don.py` can be set with ``--param NAME=VALUE``
+(repeatable; angles in degrees).
+
+    .venv/bin/python benchmarks/pose_don_dev_seeds.py                      # defaults
+    .venv/bin/python benchmarks/pose_don_dev_seeds.py --noise 2 --param GAIN=1.0
+    .venv/bin/python benchmarks/pose_don_dev_seeds.py --pose-every 4 --param TRUST_FLOOR=9
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import cv2
+import numpy as np
+
+from imimic_gym.bench import machine
+from imimic_gym.clips.cache import load_clip
+from imimic_gym.clips.dataset import randomised_spec
+from imimic_gym.estimators import pose_don
+from imimic_gym.estimators.pose_model import KEYPOINTS, BodyKeypoints
+from imimic_gym.kinematics import keypoints_to_angles, wrap_angle
+
+ANGLES = {"DISAGREE", "MAX_STEP"}  # constants held in rad, given in degrees
+UPSCALE = 2  # 540x960 -> 1080x1920
+
+
+class OraclePose:
+    """A pose model that reports the true arm of frame ``t`` (set before each call) with
+    fixed per-frame noise; the person's right arm hangs still and unconfident."""
+
+    def __init__(self, keypoints: np.ndarray, noise: float, seed: int) -> None:
+        self.keypoints, self.noise, self.seed, self.t = keypoints, noise, seed, 0
+
+    def reset(self) -> None:
+        pass
+
+    def arm(self, t: int) -> np.ndarray:
+        """Frame ``t``'s shoulder, elbow, wrist (3, 2) px as the oracle reads them."""
+        jitter = np.random.default_rng((self.seed, t)).normal(0.0, self.noise, (3, 2))
+        return self.keypoints[t, :3] + jitter
+
+    def __call__(self, frame: np.ndarray, time_s: float | None = None) -> BodyKeypoints:
+        shoulder, elbow, wrist = self.arm(self.t)
+        hand = self.keypoints[self.t, 3]
+        offsets = {"left_hip": (0, 300), "right_shoulder": (-150, 0),
+                   "right_elbow": (-150, 150), "right_wrist": (-150, 300),
+                   "right_hand": (-150, 320), "right_hip": (-80, 300)}
+        points = {"left_shoulder": shoulder, "left_elbow": elbow, "left_wrist": wrist,
+                  "left_hand": hand, **{name: shoulder + np.array(offset, float)
+                                        for name, offset in offsets.items()}}
+        confidence = np.array([0.1 if name.startswith("right") else 0.95 for name in KEYPOINTS])
+        return BodyKeypoints(np.array([points[name] for name in KEYPOINTS], float), confidence)
+
+
+def run_clip(seed: int, pose_every: int, noise: float) -> dict[str, float]:
+    spec = randomised_spec(1, seed, np.random.default_rng(seed)).replace(
+        n_frames=300, height=540, width=960)
+    clip = load_clip(spec, progress=False)
+    keypoints = clip.truth.keypoints.astype(np.float64) * UPSCALE
+    oracle = OraclePose(keypoints, noise, seed)
+    estimator = pose_don.PoseSeededDON(fps=clip.fps, arm="left", pose_every=pose_every,
+                                       model=oracle)
+    estimator.reset()
+    size = (clip.width * UPSCALE, clip.height * UPSCALE)
+    angles = []
+    for t, frame in enumerate(clip.frames):
+        oracle.t = t
+        big = cv2.resize(frame, size, interpolation=cv2.INTER_LINEAR)
+        angles.append(float(estimator.update(big).angles[0]))
+    truth = np.array([keypoints_to_angles(k[:3], 1)[0] for k in keypoints])
+    read = np.array([keypoints_to_angles(oracle.arm(t), 1)[0] for t in range(len(truth))])
+    versus_read = np.degrees(np.abs(wrap_angle(np.array(angles) - read)))
+    versus_truth = np.degrees(np.abs(wrap_angle(np.array(angles) - truth)))
+    return {"rmse_vs_read": float(np.sqrt(np.mean(versus_read ** 2))),
+            "rmse_vs_truth": float(np.sqrt(np.mean(versus_truth ** 2))),
+            "max_vs_read": float(versus_read.max()), "pose_frames": estimator.pose_frames}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seeds", type=int, nargs=2, default=(700, 712), metavar=("FIRST", "END"),
+                        help="development seeds FIRST..END-1 (default: 700 712)")
+    parser.add_argument("--pose-every", type=int, default=5,
+                        help="the pose model reads every this many frames (default: 5)")
+    parser.add_argument("--noise", type=float, default=2.0,
+                        help="the oracle's keypoint noise, px a coordinate at 1080p (default: 2)")
+    parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                        help="a module constant of estimators/pose_don.py (angles in degrees)")
+    args = parser.parse_args()
+    for setting in args.param:
+        name, _, value = setting.partition("=")
+        if not hasattr(pose_don, name) or not name.isupper():
+            parser.error(f"--param {setting}: pose_don has no constant {name!r}")
+        number = float(value)
+        setattr(pose_don, name, math.radians(number) if name in ANGLES else number)
+    rows = [run_clip(seed, args.pose_every, args.noise) for seed in range(*args.seeds)]
+    print(f"{machine()}\npose_every {args.pose_every}, noise {args.noise:g} px, "
+          f"{' '.join(args.param) or 'defaults'}, seeds {args.seeds[0]}-{args.seeds[1] - 1}")
+    clips = " ".join(f"{r['rmse_vs_read']:.1f}" for r in rows)
+    print(f"  RMSE vs the every-frame reading {np.mean([r['rmse_vs_read'] for r in rows]):.2f} "
+          f"deg (clips: {clips}), "
+          f"vs truth {np.mean([r['rmse_vs_truth'] for r in rows]):.2f}, largest "
+          f"{max(r['max_vs_read'] for r in rows):.1f}, pose frames "
+          f"{sum(r['pose_frames'] for r in rows)} of {300 * len(rows)}")
+
+
+if __name__ == "__main__":
+    main()
