@@ -13,13 +13,14 @@ and how the pose readings are weighed.
 
 Per setting: the RMSE (deg, every frame, mean over clips) of pose-seeded DON against the
 oracle read on every frame (what the `real` suite compares against, there with MediaPipe)
-and against the exact truth, the largest error, and the frames the oracle read. Any
+and against the exact truth, the largest error, the frames the oracle read, and of the
+frames between, those DON's turns carried and those rolled on at the pose rate. Any
 module constant of `estimators/pose_don.py` can be set with ``--param NAME=VALUE``
 (repeatable; angles in degrees).
 
     .venv/bin/python benchmarks/pose_don_dev_seeds.py                      # defaults
     .venv/bin/python benchmarks/pose_don_dev_seeds.py --noise 2 --param GAIN=1.0
-    .venv/bin/python benchmarks/pose_don_dev_seeds.py --pose-every 4 --param TRUST_FLOOR=9
+    .venv/bin/python benchmarks/pose_don_dev_seeds.py --pose-every 4 --no-don
 """
 
 from __future__ import annotations
@@ -82,18 +83,20 @@ def run_clip(seed: int, pose_every: int, noise: float) -> dict[str, float]:
                                        model=oracle)
     estimator.reset()
     size = (clip.width * UPSCALE, clip.height * UPSCALE)
-    angles = []
+    angles, sources = [], []
     for t, frame in enumerate(clip.frames):
         oracle.t = t
         big = cv2.resize(frame, size, interpolation=cv2.INTER_LINEAR)
         angles.append(float(estimator.update(big).angles[0]))
+        sources.append(estimator.source)
     truth = np.array([keypoints_to_angles(k[:3], 1)[0] for k in keypoints])
     read = np.array([keypoints_to_angles(oracle.arm(t), 1)[0] for t in range(len(truth))])
     versus_read = np.degrees(np.abs(wrap_angle(np.array(angles) - read)))
     versus_truth = np.degrees(np.abs(wrap_angle(np.array(angles) - truth)))
     return {"rmse_vs_read": float(np.sqrt(np.mean(versus_read ** 2))),
             "rmse_vs_truth": float(np.sqrt(np.mean(versus_truth ** 2))),
-            "max_vs_read": float(versus_read.max()), "pose_frames": estimator.pose_frames}
+            "max_vs_read": float(versus_read.max()), "pose_frames": estimator.pose_frames,
+            "don_frames": sources.count("don"), "rolled_frames": sources.count("rolled")}
 
 
 def main() -> None:
@@ -104,6 +107,8 @@ def main() -> None:
                         help="the pose model reads every this many frames (default: 5)")
     parser.add_argument("--noise", type=float, default=2.0,
                         help="the oracle's keypoint noise, px a coordinate at 1080p (default: 2)")
+    parser.add_argument("--no-don", action="store_true",
+                        help="DON never reads: between pose frames the estimate only rolls on")
     parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                         help="a module constant of estimators/pose_don.py (angles in degrees)")
     args = parser.parse_args()
@@ -113,15 +118,20 @@ def main() -> None:
             parser.error(f"--param {setting}: pose_don has no constant {name!r}")
         number = float(value)
         setattr(pose_don, name, math.radians(number) if name in ANGLES else number)
+    if args.no_don:
+        pose_don.PoseSeededDON._don_direction = lambda self, don: None  # type: ignore[method-assign]
     rows = [run_clip(seed, args.pose_every, args.noise) for seed in range(*args.seeds)]
-    print(f"{machine()}\npose_every {args.pose_every}, noise {args.noise:g} px, "
-          f"{' '.join(args.param) or 'defaults'}, seeds {args.seeds[0]}-{args.seeds[1] - 1}")
+    settings = " ".join(args.param + ["no DON"] * args.no_don) or "defaults"
+    print(f"{machine()}\npose_every {args.pose_every}, noise {args.noise:g} px, {settings}, "
+          f"seeds {args.seeds[0]}-{args.seeds[1] - 1}")
     clips = " ".join(f"{r['rmse_vs_read']:.1f}" for r in rows)
     print(f"  RMSE vs the every-frame reading {np.mean([r['rmse_vs_read'] for r in rows]):.2f} "
           f"deg (clips: {clips}), "
           f"vs truth {np.mean([r['rmse_vs_truth'] for r in rows]):.2f}, largest "
           f"{max(r['max_vs_read'] for r in rows):.1f}, pose frames "
-          f"{sum(r['pose_frames'] for r in rows)} of {300 * len(rows)}")
+          f"{sum(r['pose_frames'] for r in rows)} of {300 * len(rows)}; between them DON's "
+          f"turns on {sum(r['don_frames'] for r in rows)}, rolled on on "
+          f"{sum(r['rolled_frames'] for r in rows)}")
 
 
 if __name__ == "__main__":

@@ -6,25 +6,31 @@ DON about 1 ms on a small crop. So the pose model reads every ``pose_every``-th 
 and no other while it sees the arm (every frame while it does not: nothing to carry);
 that bounds the cost per frame at about a fifth of the pose model's at the default 5.
 
-A pose frame's estimate is the pose model's angle. From it DON gets its pivot (the
-elbow), its reference direction (the upper arm) and its working area, a square crop
-about the elbow of ``REACH`` forearm lengths a side resized to ``CROP`` px (in a
-1920x1080 frame a forearm is a few pixels of a whole frame at DON's 120 rows; on the
-crop it is half its height). DON reads every frame of the crop. Between pose frames the
-estimate is the pose angle turned by as much as DON saw the forearm turn since (DON's
-own direction can be off by a steady bias: only its turns are used), counted from the
-pose frame or from the first frame since on which DON read the forearm; where DON has
-no trusted reading (eta below ``TRUST_FLOOR``, layer 5's prediction, or a turn over
-``MAX_STEP`` in a frame), the last estimate rolls on at the turn rate of the last two
-pose frames.
+From a pose reading DON gets its pivot (the elbow), its reference direction (the upper
+arm) and its working area: a square crop about the elbow of ``REACH`` forearm lengths a
+side, resized to ``CROP`` px (in a 1920x1080 frame a forearm is a few pixels of a whole
+frame at DON's 120 rows; on the crop it is half its height). DON reads every frame of
+the crop.
 
-On a pose frame DON's pivot moves to the elbow the pose model sees (`DON.move_pivot`,
-keeping DON's frames). DON is seeded afresh, on a new crop, when the elbow is over
-``MOVE`` forearm lengths off the crop's centre or the forearm's length changed by over
-``SCALE`` (the person moved), or when DON's turns carried the estimate over
-``DISAGREE`` away from the pose model's angle (DON followed something else). Nobody in
-view: trust 0, the angle held, as `PoseEstimator`. Why these values:
-``docs/decisions/pose-don.md``.
+Between pose frames the estimate is the angle at an anchor turned by as much as DON saw
+the forearm turn since; the anchor is the pose frame, or the first frame since on which
+DON read the forearm. Only DON's turns are used: its own direction can be off by a
+steady bias. DON's eta does not gate them (its turns help even where the link's reach
+varies, and the next pose frame checks them). Where DON has no reading (no link found
+yet, layer 5's prediction, or a turn over ``MAX_STEP`` in a frame), the last estimate
+rolls on at the turn rate between the last two pose frames. The estimate's trust is the
+pose model's on its last frame.
+
+On a pose frame the estimate moves ``GAIN`` of the way from the angle carried to this
+frame to the pose model's reading: the model's keypoints jitter, DON's turns do not. A
+reading over ``DISAGREE`` from the carried angle is taken as it is, with no turn rate
+(the arm moved faster than the carry followed: a new place, not jitter), and so is the
+first. DON's pivot moves to the elbow the pose model sees (`DON.move_pivot`, keeping
+DON's frames). DON is seeded afresh, on a new crop, when the elbow is over ``MOVE``
+forearm lengths off the crop's centre or the forearm's length changed by over ``SCALE``
+(the person moved), or when DON's turns carried the estimate over ``DISAGREE`` away from
+the pose model's reading (DON followed something else). Nobody in view: trust 0, the
+angle held, as `PoseEstimator`. Why these values: ``docs/decisions/pose-don.md``.
 """
 
 from __future__ import annotations
@@ -49,8 +55,9 @@ REACH = 3.2  # the crop's side in forearm lengths: the forearm fits whichever wa
 MIN_SIDE = 32.0  # input px: the smallest crop
 MOVE = 0.5  # elbow shift off the crop's centre, in forearm lengths, that re-seeds DON
 SCALE = 0.5  # relative change of the forearm's length that re-seeds DON
-DISAGREE = math.radians(20.0)  # DON's carried angle against the pose model's: re-seed
-TRUST_FLOOR = 0.5  # DON's eta below this: its reading is not used
+# A pose reading further than this from the carried angle is taken as it is, and DON is
+# re-seeded if its turns carried the angle there.
+DISAGREE = math.radians(20.0)
 # DON's reading that turns the forearm further than this from the last frame's estimate
 # is not taken (an elbow at 450 deg/s turns 15 deg a frame at 30 fps).
 MAX_STEP = math.radians(15.0)
@@ -157,11 +164,8 @@ class PoseSeededDON:
         if self.reading and self.last is not None and self.since_pose < self.pose_every:
             angle, turned = self._carried(direction)
             self.source = "don" if turned else "rolled"
-            if turned and don is not None and don.keypoints is not None:
-                self.carried = True
-                return self._estimate(angle, min(float(don.trust), self.last.trust),
-                                      self.origin + don.keypoints * (self.side / CROP))
-            return self._estimate(angle, self.last.trust, self.keypoints)
+            self.carried = self.carried or turned
+            return self._estimate(angle, self.last.trust, self._drawn(angle))
         previous = np.array([self.angle]) if self.reading else None
         reading = self.pose.read(frame, previous, (self.frame - 1) / self.fps)
         since, self.since_pose = self.since_pose, 0
@@ -173,7 +177,7 @@ class PoseSeededDON:
             return self._hold()
         angle = float(reading.angles[0])
         same_arm = self.reading and self.last is not None and reading.side == self.last.side
-        reseed = self.don is None or self._moved(reading)
+        reseed = self.don is None or not same_arm or self._moved(reading)
         self.rate = 0.0
         if same_arm:
             predicted, turned = self._carried(direction)
@@ -191,12 +195,12 @@ class PoseSeededDON:
             self.don.move_pivot(tuple((reading.keypoints[1] - self.origin) * CROP / self.side))
         self.last, self.carried, self.at_pose = reading, False, angle
         self.anchor = None if direction is None else (angle, direction)
-        return self._estimate(angle, reading.trust, reading.keypoints[1:])
+        return self._estimate(angle, reading.trust, self._drawn(angle))
 
     def _don_direction(self, don: Estimate | None) -> float | None:
-        """DON's trusted image direction of the forearm this frame (rad), else None."""
-        if (don is None or float(don.trust) < TRUST_FLOOR or don.keypoints is None
-                or don.predicted):
+        """DON's image direction of the forearm this frame (rad), else None (no DON, no
+        link found yet, or layer 5's prediction rather than a reading)."""
+        if don is None or don.keypoints is None or don.predicted:
             return None
         return float(wrap_angle(self.seed_direction + float(don.angles[0])))
 
@@ -215,6 +219,16 @@ class PoseSeededDON:
                 return continue_within(angle, ELBOW_RANGE, self.angle), True
             self.anchor = None  # DON jumped: not the forearm
         return continue_within(self.angle + self.rate, ELBOW_RANGE, self.angle), False
+
+    def _drawn(self, angle: float) -> np.ndarray:
+        """The forearm drawn at ``angle``: the last pose frame's elbow and wrist (2, 2) px,
+        the wrist turned about the elbow from that frame's reading to ``angle``."""
+        assert self.last is not None
+        elbow, wrist = self.last.keypoints[1:]
+        turn = angle - float(self.last.angles[0])
+        c, s = math.cos(turn), math.sin(turn)
+        dx, dy = wrist - elbow
+        return np.array([elbow, elbow + np.array([c * dx + s * dy, -s * dx + c * dy])])
 
     def _estimate(self, angle: float, trust: float, keypoints: np.ndarray) -> Estimate:
         if not self.reading:

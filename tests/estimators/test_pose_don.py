@@ -3,12 +3,12 @@ is seeded on the elbow, carries the forearm between pose frames, and is seeded a
 when the elbow moves; nobody in view holds."""
 
 import math
+import sys
 
 import cv2
 import numpy as np
 import pytest
 
-from imimic_gym.estimators import pose_don
 from imimic_gym.estimators.pose_don import CROP, PoseSeededDON
 from imimic_gym.estimators.pose_model import KEYPOINTS, BodyKeypoints
 
@@ -106,16 +106,20 @@ def test_don_carries_the_forearm_between_pose_frames_and_is_reseeded_when_the_el
     error = np.abs(angles - truth)
     assert error[3:].max() < 8.0 and error[from_don].mean() < 3.0
     assert all(e.trust > 0.4 and e.keypoints.shape == (2, 2) for e in estimates)
-    # Keypoints drawn in input pixels: DON's pivot is the elbow.
+    # Keypoints drawn in input pixels, at the elbow, and the forearm drawn at the angle
+    # given (the upper arm hangs straight down).
     for t in from_don:
-        assert np.hypot(*(estimates[t].keypoints[0] - elbow_at(t))) < 2.0
+        elbow, wrist = estimates[t].keypoints
+        assert np.hypot(*(elbow - elbow_at(t))) < 2.0
+        drawn = math.degrees(math.atan2(-(wrist[1] - elbow[1]), wrist[0] - elbow[0])) + 90.0
+        assert drawn == pytest.approx(angles[t], abs=0.01)
     assert CROP == 120
 
 
 def test_dons_turns_carry_the_forearm_closer_than_the_pose_frames_rate(
         monkeypatch: pytest.MonkeyPatch) -> None:
     """Between pose frames DON's reading turns the estimate; without it (DON never
-    trusted) the estimate rolls on at the last two pose frames' rate, which misses the
+    reads) the estimate rolls on at the last two pose frames' rate, which misses the
     sinusoid's turns."""
     truth = np.degrees([flexion(t) for t in range(FRAMES)])
 
@@ -127,9 +131,24 @@ def test_dons_turns_carry_the_forearm_closer_than_the_pose_frames_rate(
                               for t in between]))
 
     with_don = carried_error()
-    monkeypatch.setattr(pose_don, "TRUST_FLOOR", 2.0)  # DON's eta never reaches it
+    monkeypatch.setattr(PoseSeededDON, "_don_direction", lambda self, don: None)
     rolled_on = carried_error()
     assert with_don < 3.0 < rolled_on and with_don < 0.5 * rolled_on
+
+
+def test_a_jump_between_pose_frames_is_taken_as_a_place_not_rolled_on_as_a_speed(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The forearm holds at 30 degrees, then is at 90 from frame 48: the pose frame at 50
+    sees a change far larger than jitter. The estimate takes that reading and holds it;
+    rolling it on at 60 degrees per pose interval would overshoot by 12 a frame."""
+    monkeypatch.setattr(sys.modules[__name__], "flexion",
+                        lambda t: math.radians(30.0 if t < 48 else 90.0))
+    monkeypatch.setattr(PoseSeededDON, "_don_direction", lambda self, don: None)
+    model = ScriptedModel(elbow_of=drifting)
+    _, estimates, _ = run(model, pose_every=5)
+    angles = np.degrees([e.angles[0] for e in estimates])
+    assert angles[40:48] == pytest.approx(30.0, abs=0.5)
+    assert angles[50:60] == pytest.approx(90.0, abs=0.5)
 
 
 def test_a_swaying_elbow_moves_dons_pivot_without_a_new_seed() -> None:
