@@ -73,9 +73,9 @@ class OraclePose:
         return BodyKeypoints(np.array([points[name] for name in KEYPOINTS], float), confidence)
 
 
-def run_clip(seed: int, pose_every: int, noise: float) -> dict[str, float]:
+def run_clip(seed: int, pose_every: int, noise: float, fps: float) -> dict[str, float]:
     spec = randomised_spec(1, seed, np.random.default_rng(seed)).replace(
-        n_frames=300, height=540, width=960)
+        n_frames=300, height=540, width=960, fps=fps)
     clip = load_clip(spec, progress=False)
     keypoints = clip.truth.keypoints.astype(np.float64) * UPSCALE
     oracle = OraclePose(keypoints, noise, seed)
@@ -107,6 +107,9 @@ def main() -> None:
                         help="the pose model reads every this many frames (default: 5)")
     parser.add_argument("--noise", type=float, default=2.0,
                         help="the oracle's keypoint noise, px a coordinate at 1080p (default: 2)")
+    parser.add_argument("--fps", type=float, default=30.0,
+                        help="the clips' frame rate: the same motions filmed faster turn "
+                             "less a frame, as a slow movement does (default: 30)")
     parser.add_argument("--no-don", action="store_true",
                         help="DON never reads: between pose frames the estimate only rolls on")
     parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
@@ -120,10 +123,11 @@ def main() -> None:
         setattr(pose_don, name, math.radians(number) if name in ANGLES else number)
     if args.no_don:
         pose_don.PoseSeededDON._don_direction = lambda self, don: None  # type: ignore[method-assign]
-    rows = [run_clip(seed, args.pose_every, args.noise) for seed in range(*args.seeds)]
+    rows = [run_clip(seed, args.pose_every, args.noise, args.fps)
+            for seed in range(*args.seeds)]
     settings = " ".join(args.param + ["no DON"] * args.no_don) or "defaults"
     print(f"{machine()}\npose_every {args.pose_every}, noise {args.noise:g} px, {settings}, "
-          f"seeds {args.seeds[0]}-{args.seeds[1] - 1}")
+          f"{args.fps:g} fps, seeds {args.seeds[0]}-{args.seeds[1] - 1}")
     clips = " ".join(f"{r['rmse_vs_read']:.1f}" for r in rows)
     print(f"  RMSE vs the every-frame reading {np.mean([r['rmse_vs_read'] for r in rows]):.2f} "
           f"deg (clips: {clips}), "
