@@ -14,9 +14,9 @@ and how the pose readings are weighed.
 Per setting: the RMSE (deg, every frame, mean over clips) of pose-seeded DON against the
 oracle read on every frame (what the `real` suite compares against, there with MediaPipe)
 and against the exact truth, the largest error, the frames the oracle read, and of the
-frames between, those DON's turns carried and those rolled on at the pose rate. Any
-module constant of `estimators/pose_don.py` can be set with ``--param NAME=VALUE``
-(repeatable; angles in degrees).
+frames between, those DON's turns carried and those rolled on at the pose rate. The
+constants of `estimators/pose_don.py` in ``TUNABLE`` can be set with ``--param
+NAME=VALUE`` (repeatable; angles in degrees).
 
     .venv/bin/python benchmarks/pose_don_dev_seeds.py                      # defaults
     .venv/bin/python benchmarks/pose_don_dev_seeds.py --noise 2 --param GAIN=1.0
@@ -42,6 +42,7 @@ from imimic_gym.estimators.pose_model import KEYPOINTS, BodyKeypoints
 from imimic_gym.kinematics import keypoints_to_angles, wrap_angle
 
 ANGLES = {"DISAGREE", "MAX_STEP"}  # constants held in rad, given in degrees
+TUNABLE = ("GAIN", "DISAGREE", "MAX_STEP", "MOVE", "SCALE", "REACH", "MIN_SIDE")
 UPSCALE = 2  # 540x960 -> 1080x1920
 
 
@@ -113,12 +114,13 @@ def main() -> None:
     parser.add_argument("--no-don", action="store_true",
                         help="DON never reads: between pose frames the estimate only rolls on")
     parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
-                        help="a module constant of estimators/pose_don.py (angles in degrees)")
+                        help="a constant of estimators/pose_don.py: " + ", ".join(TUNABLE)
+                             + " (angles in degrees)")
     args = parser.parse_args()
     for setting in args.param:
         name, _, value = setting.partition("=")
-        if not hasattr(pose_don, name) or not name.isupper():
-            parser.error(f"--param {setting}: pose_don has no constant {name!r}")
+        if name not in TUNABLE:
+            parser.error(f"--param {setting}: the constants to set are {', '.join(TUNABLE)}")
         number = float(value)
         setattr(pose_don, name, math.radians(number) if name in ANGLES else number)
     if args.no_don:

@@ -110,6 +110,7 @@ class DON:
         if self.appearance is not None:
             self.appearance.reset()
         self.read = False  # the motion layers read the link in the newest frame
+        self.appearance_read = False  # the appearance layer read it there
         self.link: LinkTracker | None = None  # made on the first frame, once scale is known
         self.path = PathEstimator(1, self.fps, self.window)
         # M_p of the trust factor: the link's visible length per frame, None where the
@@ -300,7 +301,7 @@ class DON:
 
     def update(self, frame: np.ndarray) -> Estimate:
         """Take the next (H, W, 3) uint8 RGB frame; return the estimate for it."""
-        self.read = False
+        self.read = self.appearance_read = False
         reading = self._read_motion(frame)
         if reading is not None:
             if not self.motion.scene_changed:
@@ -325,6 +326,7 @@ class DON:
             directions=link.directions, lost=self.search_when_lost and self.hidden)
         if angle is None:
             return reading
+        self.appearance_read = True
         self.path.correct((angle,))
         self.angle = angle
         return Reading(angle, float(self.path.omega()[0]), float(self.path.alpha()[0]),

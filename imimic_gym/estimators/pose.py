@@ -29,12 +29,15 @@ from imimic_gym.estimators.pose_model import BodyKeypoints, PoseModel
 from imimic_gym.estimators.types import Estimate
 from imimic_gym.kinematics import keypoints_to_angles, wrap_angle
 
-__all__ = ["ELBOW_RANGE", "SHOULDER_RANGE", "ArmChooser", "ArmReading", "PoseEstimator",
-           "continue_within", "human_joint_ranges"]
+__all__ = ["ELBOW_RANGE", "FOLD_NOISE", "SHOULDER_RANGE", "ArmChooser", "ArmReading",
+           "PoseEstimator", "continue_within", "human_joint_ranges"]
 
 # Elbow flexion is 0 to about 150 degrees; a 2-D view shows it either way round, and the
 # margin takes the model's noise and the projection of a straight arm.
 ELBOW_RANGE = (-math.radians(175), math.radians(175))
+# A turn past an elbow limit by more than this is the arm on the other side of the fold,
+# not the model's noise at it (`continue_within`).
+FOLD_NOISE = math.radians(45)
 # The upper arm from the torso's axis: anywhere but straight up through the body.
 SHOULDER_RANGE = (-math.radians(175), math.radians(175))
 
@@ -55,11 +58,20 @@ def continue_within(q: float, joint_range: tuple[float, float],
     frame before's angle; None: nothing to continue). A folded elbow seen in 2-D reads
     near +-180 degrees and its noise crosses that line, which is no reason for the robot
     to swing the long way round; so the reading is taken as the turn from the previous
-    angle (within +-180 degrees of it) and stopped at the limit it passes."""
+    angle (within +-180 degrees of it) and stopped at the limit it passes. A turn that
+    would pass the limit by over ``FOLD_NOISE`` is no noise at the fold: the elbow cannot
+    pass through it, so the arm went the other way round, and the reading stands as the
+    angle within the range (an arm first read folded on the far side, then unfolding)."""
     low, high = joint_range
     if previous is None:
         return within_range(q, joint_range)
-    return min(max(previous + float(wrap_angle(q - previous)), low), high)
+    turned = previous + float(wrap_angle(q - previous))
+    past = max(turned - high, low - turned)
+    if past > FOLD_NOISE:
+        other = turned - 2 * math.pi if turned > high else turned + 2 * math.pi
+        if low <= other <= high:
+            return other
+    return min(max(turned, low), high)
 
 
 @dataclass(frozen=True)
@@ -117,7 +129,10 @@ class ArmChooser:
     def __call__(self, body: BodyKeypoints, time_s: float | None = None) -> str:
         """The side to follow in this reading (call once per reading, in order;
         ``time_s``: its time in the video, None: one frame after the last)."""
-        now = self.calls / self.fps if time_s is None else time_s
+        now = self.calls / self.fps if time_s is None else float(time_s)
+        if not math.isfinite(now):
+            raise ValueError(f"ArmChooser: time_s must be a finite number of seconds, "
+                             f"got {time_s!r}")
         self.calls += 1
         for side in ("left", "right"):
             points, confidence = body.arm(side)
@@ -184,14 +199,19 @@ class PoseEstimator:
         self.path = PathEstimator(self.n_links, self.fps)
         self.angles = np.zeros(self.n_links)
         self.last: ArmReading | None = None
-        self.frame = 0  # frames seen since reset
+        self.reads = 0  # frames read since reset
 
-    def read(self, frame: np.ndarray, previous: np.ndarray | None = None,
+    def read(self, frame: np.ndarray, previous: ArmReading | None = None,
              time_s: float | None = None) -> ArmReading | None:
         """This frame's arm, or None where no person (or no confident arm) is seen.
-        ``previous``: the (n,) angles of the frame before, if it had a reading: a
-        reading continues from them (`continue_within`). ``time_s``: the frame's time in
-        the video (`PoseModel`), for a model that reads some frames only."""
+        ``previous``: the frame before's reading, if it had one (its angles may be
+        replaced by an estimate's): a reading of the same arm continues from its angles
+        (`continue_within`); the other arm starts afresh. ``time_s``: the frame's time in
+        the video (s; None: one frame after the last read), for the model's filters and
+        the arm chooser, so a caller that reads some frames only passes it."""
+        if time_s is None:
+            time_s = self.reads / self.fps
+        self.reads += 1
         body = self.model(frame, time_s)
         if body is None:
             return None
@@ -200,17 +220,18 @@ class PoseEstimator:
         if confidence.min() < self.min_confidence:
             return None
         angles = keypoints_to_angles(keypoints, self.n_links, self.reference_direction)
+        if previous is not None and previous.side != side:
+            previous = None  # the other arm: nothing to continue
         angles = np.array([continue_within(float(q), joint_range,
-                                           None if previous is None else float(previous[j]))
+                                           None if previous is None
+                                           else float(previous.angles[j]))
                            for j, (q, joint_range) in enumerate(zip(angles, self.ranges,
                                                                     strict=True))])
         return ArmReading(side, keypoints, confidence, angles)
 
     def update(self, frame: np.ndarray) -> Estimate:
         """Take the next (H, W, 3) uint8 RGB frame and return the estimate for it."""
-        previous = None if self.last is None else self.last.angles
-        self.frame += 1
-        return self.estimate(self.read(frame, previous, (self.frame - 1) / self.fps))
+        return self.estimate(self.read(frame, self.last))
 
     def estimate(self, reading: ArmReading | None) -> Estimate:
         """The `Estimate` for a frame's reading (None: hold, trust 0)."""

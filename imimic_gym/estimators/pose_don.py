@@ -4,7 +4,8 @@ and reads the arm every few frames; DON carries the forearm between those frames
 The pose model (`pose.PoseEstimator.read`) costs some 17-20 ms a frame on 2 CPU cores,
 DON about 1 ms on a small crop. So the pose model reads every ``pose_every``-th frame
 and no other while it sees the arm (every frame while it does not: nothing to carry);
-that bounds the cost per frame at about a fifth of the pose model's at the default 5.
+while it sees the arm, that bounds the cost per frame at about a fifth of the pose
+model's at the default 5.
 
 From a pose reading DON gets its pivot (the elbow), its reference direction (the upper
 arm) and its working area: a square crop about the elbow of ``REACH`` forearm lengths a
@@ -23,19 +24,22 @@ pose model's on its last frame.
 
 On a pose frame the estimate moves ``GAIN`` of the way from the angle carried to this
 frame to the pose model's reading: the model's keypoints jitter, DON's turns do not. A
-reading over ``DISAGREE`` from the carried angle is taken as it is, with no turn rate
-(the arm moved faster than the carry followed: a new place, not jitter), and so is the
-first. DON's pivot moves to the elbow the pose model sees (`DON.move_pivot`, keeping
-DON's frames). DON is seeded afresh, on a new crop, when the elbow is over ``MOVE``
-forearm lengths off the crop's centre or the forearm's length changed by over ``SCALE``
-(the person moved), or when DON's turns carried the estimate over ``DISAGREE`` away from
-the pose model's reading (DON followed something else). Nobody in view: trust 0, the
-angle held, as `PoseEstimator`. Why these values: ``docs/decisions/pose-don.md``.
+reading over ``DISAGREE`` from the carried angle is taken as it is (the arm moved faster
+than the carry followed: a new place, not jitter), with no turn rate, unless the pose
+frame before was such a jump at a like rate (a fast steady turn: it rolls on at it); so
+is the first reading, and the other arm's. DON's pivot moves to the elbow the pose model
+sees (`DON.move_pivot`, keeping DON's frames). DON is seeded afresh, on a new crop, when
+the elbow is over ``MOVE`` forearm lengths off the crop's centre or the forearm's length
+changed by over ``SCALE`` (the person moved), or when DON's turns carried the estimate
+over ``DISAGREE`` away from the pose model's reading (DON followed something else).
+Nobody in view: trust 0, the angle held, as `PoseEstimator`. Why these values:
+``docs/decisions/pose-don.md``.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import cv2
 import mujoco
@@ -65,6 +69,11 @@ MAX_STEP = math.radians(15.0)
 # (or rolled on) to the pose model's reading: the model's keypoints jitter from frame to
 # frame, DON's turns do not.
 GAIN = 0.7
+
+
+def _alike(rate: float, before: float | None) -> bool:
+    """Two turn rates (rad a frame) of the same sign within a factor of two."""
+    return before is not None and rate * before > 0 and 0.5 <= rate / before <= 2.0
 
 
 def _direction(start: np.ndarray, end: np.ndarray) -> float:
@@ -122,6 +131,7 @@ class PoseSeededDON:
         self.anchor: tuple[float, float] | None = None
         self.rate = 0.0  # rad a frame: the turn between the last two pose frames
         self.at_pose = 0.0  # rad: the estimate on the last pose frame
+        self.jump: float | None = None  # rad a frame: the last pose frame's jump, if it was one
         self.carried = False  # DON turned the estimate since the last pose frame
         self.keypoints = np.zeros((2, 2))  # the last estimate's elbow and wrist, input px
 
@@ -166,27 +176,37 @@ class PoseSeededDON:
             self.source = "don" if turned else "rolled"
             self.carried = self.carried or turned
             return self._estimate(angle, self.last.trust, self._drawn(angle))
-        previous = np.array([self.angle]) if self.reading else None
+        previous = (replace(self.last, angles=np.array([self.angle]))
+                    if self.reading and self.last is not None else None)
         reading = self.pose.read(frame, previous, (self.frame - 1) / self.fps)
         since, self.since_pose = self.since_pose, 0
         self.pose_frames += 1
         self.source = "pose" if reading is not None else "none"
         if reading is None:
-            self.don, self.last, self.anchor = None, None, None
+            self.don, self.last, self.anchor, self.jump = None, None, None, None
             self.rate = 0.0
             return self._hold()
         angle = float(reading.angles[0])
-        same_arm = self.reading and self.last is not None and reading.side == self.last.side
+        same_arm = previous is not None and reading.side == previous.side
         reseed = self.don is None or not same_arm or self._moved(reading)
-        self.rate = 0.0
         if same_arm:
+            assert self.last is not None
+            raw_rate = float(wrap_angle(angle - self.last.angles[0])) / since
             predicted, turned = self._carried(direction)
             surprise = float(wrap_angle(angle - predicted))
             if abs(surprise) > DISAGREE:  # not jitter: the arm is where the model sees it
                 reseed = reseed or self.carried or turned  # DON's turns led elsewhere
+                # One jump is a new place, not a speed; two alike in a row are a speed.
+                self.rate = raw_rate if _alike(raw_rate, self.jump) else 0.0
+                self.jump = raw_rate
+                self.path.reset()  # no velocity from the jump
             else:  # the model's reading weighed against the carried estimate
                 angle = continue_within(predicted + GAIN * surprise, ELBOW_RANGE, self.angle)
                 self.rate = float(wrap_angle(angle - self.at_pose)) / since
+                self.jump = None
+        else:  # the first reading, or the other arm: nothing to carry on from
+            self.rate, self.jump = 0.0, None
+            self.path.reset()
         if reseed:
             self._seed(frame, reading)
             direction = None
@@ -198,25 +218,28 @@ class PoseSeededDON:
         return self._estimate(angle, reading.trust, self._drawn(angle))
 
     def _don_direction(self, don: Estimate | None) -> float | None:
-        """DON's image direction of the forearm this frame (rad), else None (no DON, no
-        link found yet, or layer 5's prediction rather than a reading)."""
-        if don is None or don.keypoints is None or don.predicted:
+        """DON's image direction of the forearm this frame (rad), else None: no DON, or no
+        reading of this frame (layer 5's prediction, or the last reading held because
+        neither the motion layers nor the appearance layer saw the link)."""
+        if (don is None or self.don is None or don.keypoints is None or don.predicted
+                or not (self.don.read or self.don.appearance_read)):
             return None
         return float(wrap_angle(self.seed_direction + float(don.angles[0])))
 
     def _carried(self, direction: float | None) -> tuple[float, bool]:
         """This frame's angle carried on from the last estimate, and whether DON's reading
-        (its forearm ``direction``, None: no trusted reading) turned it. Where DON reads
-        the forearm: the angle at its anchor (the pose frame, or the first frame since on
+        (its forearm ``direction``, None: no reading) turned it. Where DON reads the
+        forearm: the angle at its anchor (the pose frame, or the first frame since on
         which DON read) turned as far as DON saw the forearm turn since. Else the last
         estimate rolled on at the turn rate between the last two pose frames."""
         if direction is not None:
             anchor = self.anchor if self.anchor is not None else (self.angle + self.rate,
                                                                   direction)
-            angle = anchor[0] + float(wrap_angle(direction - anchor[1]))
+            angle = continue_within(anchor[0] + float(wrap_angle(direction - anchor[1])),
+                                    ELBOW_RANGE, self.angle)
             if abs(float(wrap_angle(angle - self.angle))) <= MAX_STEP:
                 self.anchor = anchor
-                return continue_within(angle, ELBOW_RANGE, self.angle), True
+                return angle, True
             self.anchor = None  # DON jumped: not the forearm
         return continue_within(self.angle + self.rate, ELBOW_RANGE, self.angle), False
 

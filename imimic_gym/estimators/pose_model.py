@@ -155,10 +155,12 @@ class PoseModel:
             # one step after the last, so the first frame (time 0) gets one step. Set the
             # last stamp so that this frame gets its own time.
             last = self._graph._simulated_timestamp
-            if not (math.isfinite(time_s) and _LEGACY_STEP_US + round(time_s * 1e6) > last):
-                raise ValueError(f"PoseModel: frame times must increase from call to call, "
-                                 f"got {time_s!r} s after "
-                                 f"{(last - _LEGACY_STEP_US) / 1e6:g} s")
+            if not (math.isfinite(time_s) and time_s >= 0
+                    and _LEGACY_STEP_US + round(time_s * 1e6) > last):
+                after = ("" if last == 0
+                         else f" after {(last - _LEGACY_STEP_US) / 1e6:g} s")
+                raise ValueError(f"PoseModel: frame times must be at least 0 s and increase "
+                                 f"from call to call, got {time_s!r} s{after}")
             self._graph._simulated_timestamp = round(time_s * 1e6)
         h, w = frame.shape[:2]
         scale = max(h, w) / self.max_side

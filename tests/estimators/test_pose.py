@@ -60,11 +60,12 @@ def test_frame_times_reach_the_models_filters_and_must_increase(person_clip) -> 
     for t in (0, 5, 10):  # every fifth frame of a 30 fps clip
         model(person_clip.frames[t], t / 30.0)
         assert model._graph._simulated_timestamp == step + round(t / 30.0 * 1e6)
-    with pytest.raises(ValueError, match="frame times must increase"):
-        model(person_clip.frames[11], 10 / 30.0)
-    with pytest.raises(ValueError, match="frame times must increase"):
-        model(person_clip.frames[11], math.nan)
+    for bad in (10 / 30.0, 9 / 30.0, math.nan):
+        with pytest.raises(ValueError, match="frame times must be at least 0 s and increase"):
+            model(person_clip.frames[11], bad)
     model.reset()  # a new video starts at time 0 again
+    with pytest.raises(ValueError, match=r"got -0.5 s$"):
+        model(person_clip.frames[0], -0.5)
     model(person_clip.frames[0], 0.0)
     model(person_clip.frames[1])  # no time: one step on, as before
     assert model._graph._simulated_timestamp == 2 * step
@@ -147,6 +148,8 @@ def test_the_arms_motion_is_summed_over_seconds_not_readings() -> None:
 
     every_frame, fifth = switch_time(1), switch_time(5)
     assert 2.5 < every_frame < 3.5 and abs(fifth - every_frame) <= 5 / 30.0
+    with pytest.raises(ValueError, match="time_s must be a finite number of seconds"):
+        ArmChooser(fps=30.0)(body(), math.nan)
 
 
 def test_angles_follow_the_convention_and_nobody_means_hold() -> None:
@@ -168,6 +171,21 @@ def test_angles_follow_the_convention_and_nobody_means_hold() -> None:
     assert angles[5] == pytest.approx(60.0) and estimates[5].omega[0] == 0.0
 
 
+def test_the_other_arm_is_read_afresh_not_continued_from_the_first() -> None:
+    """The right forearm points across the body (-90 degrees from its upper arm), then
+    the left one waves at +90 to +150: once the left arm is chosen its angle is its own,
+    not the first arm's continued the long way round to the limit."""
+    bodies = [body(right_forearm=180.0, left_forearm=-90.0)] * 5 + [
+        body(right_forearm=180.0, left_forearm=30.0 * math.sin(t / 3)) for t in range(55)]
+    estimator = PoseEstimator(fps=30.0, model=ScriptedModel(bodies))
+    estimates = [estimator.update(np.zeros((8, 8, 3), np.uint8)) for _ in bodies]
+    assert estimator.chooser.side == "left"
+    switched = next(t for t, e in enumerate(estimates) if e.angles[0] > 0)
+    for b, e in zip(bodies[switched:], estimates[switched:], strict=True):
+        assert e.angles == pytest.approx(keypoints_to_angles(b.arm("left")[0], 1))
+    assert abs(estimates[switched].omega[0]) < 1e-9  # a switch is no velocity
+
+
 def test_a_folded_elbow_does_not_flip_across_180_degrees() -> None:
     # The forearm folds back along the upper arm, its reading crossing +-180 deg and back.
     forearms = [80.0, 84.0, 88.0, 92.0, 96.0, 80.0]  # image angles: q = forearm - (-90)
@@ -179,3 +197,16 @@ def test_a_folded_elbow_does_not_flip_across_180_degrees() -> None:
     # 170, 174, then 178, 182 (read -178) and 186 (read -174) all stop at the limit on
     # the side the elbow is on, not at -178 or -174; then back to 170.
     assert angles == pytest.approx([170.0, 174.0, limit, limit, limit, 170.0])
+
+
+def test_an_arm_read_folded_on_the_far_side_unfolds_the_other_way() -> None:
+    """First read folded at +175 (its reading 178), the arm unfolds down the other side:
+    -150, -100, -40. From +175, -150 is 35 degrees past the fold: the model's noise
+    there, held at the limit. -100 is 85 past it, a way no elbow turns: the arm is on
+    the other side, and is read as it is, not held at +175 for the rest of the clip."""
+    forearms = [88.0, 120.0, 170.0, 230.0]  # q = forearm + 90: 178, -150, -100, -40
+    model = ScriptedModel([body(left_forearm=a) for a in forearms])
+    estimator = PoseEstimator(fps=30.0, arm="left", model=model)
+    angles = [math.degrees(estimator.update(np.zeros((8, 8, 3), np.uint8)).angles[0])
+              for _ in forearms]
+    assert angles == pytest.approx([175.0, 175.0, -100.0, -40.0])

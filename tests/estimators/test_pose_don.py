@@ -151,14 +151,80 @@ def test_a_jump_between_pose_frames_is_taken_as_a_place_not_rolled_on_as_a_speed
     assert angles[50:60] == pytest.approx(90.0, abs=0.5)
 
 
+def test_a_fast_steady_turn_is_followed_after_two_like_jumps(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A forearm turning 5 degrees a frame, with no DON: each pose frame is over DISAGREE
+    from the carried angle. The first jump is a place (no rate); the second, alike, makes
+    it a speed, so the estimate follows the ramp instead of climbing a staircase."""
+    monkeypatch.setattr(sys.modules[__name__], "flexion",
+                        lambda t: math.radians(20.0 + 5.0 * min(t, 30)))
+    monkeypatch.setattr(PoseSeededDON, "_don_direction", lambda self, don: None)
+    model = ScriptedModel(elbow_of=drifting)
+    _, estimates, _ = run(model, pose_every=5)
+    angles = np.degrees([e.angles[0] for e in estimates])
+    assert angles[10:30] == pytest.approx(20.0 + 5.0 * np.arange(10, 30), abs=0.5)
+
+
+def test_the_other_arm_is_read_afresh_and_dons_crop_moves_to_it() -> None:
+    """Both arms in view: the left waves, then stops while the right waves. Once the
+    right arm is chosen its angle is its own reading (no jump in velocity), and DON's
+    crop is about the right elbow."""
+    elbows = {"left": np.array([220.0, 110.0]), "right": np.array([90.0, 110.0])}
+
+    def flex(side: str, t: int) -> float:
+        waving = (t < 30) == (side == "left")
+        return math.radians(60.0 + (40.0 * math.sin(2 * math.pi * t / 20) if waving else 0.0))
+
+    def side_arm(side: str, t: int) -> np.ndarray:
+        elbow, direction = elbows[side], -math.pi / 2 + flex(side, t)
+        wrist = elbow + FOREARM * np.array([math.cos(direction), -math.sin(direction)])
+        return np.array([elbow - [0.0, UPPER], elbow, wrist])
+
+    class TwoArms(ScriptedModel):
+        def __call__(self, picture, time_s=None):
+            self.calls.append(self.t)
+            points = {f"{side}_{joint}": p for side in elbows
+                      for joint, p in zip(("shoulder", "elbow", "wrist"),
+                                          side_arm(side, self.t), strict=True)}
+            points.update({f"{side}_hand": points[f"{side}_wrist"] for side in elbows})
+            points.update(left_hip=[200.0, 200.0], right_hip=[110.0, 200.0])
+            return BodyKeypoints(np.array([points[name] for name in KEYPOINTS], float),
+                                 np.full(len(KEYPOINTS), 0.95))
+
+    model = TwoArms()
+    estimator = PoseSeededDON(fps=30.0, model=model, pose_every=5)
+    estimator.reset()
+    estimates, sides = [], []
+    for t in range(FRAMES):
+        model.t = t
+        picture = np.full((240, 320, 3), 40, np.uint8)
+        for side in elbows:
+            shoulder, elbow, wrist = (tuple(int(v) for v in np.rint(p))
+                                      for p in side_arm(side, t))
+            cv2.line(picture, shoulder, elbow, (90, 90, 200), 9, cv2.LINE_AA)
+            cv2.line(picture, elbow, wrist, (230, 190, 150), 9, cv2.LINE_AA)
+        estimates.append(estimator.update(picture))
+        sides.append(estimator.last.side)
+    # (A tie at the first frame goes to the right arm; the waving left takes over.)
+    assert sides[29] == "left"
+    switch = next(t for t in range(30, FRAMES) if sides[t] == "right")
+    assert switch < FRAMES - 10 and switch in model.calls
+    assert estimates[switch].angles[0] == pytest.approx(flex("right", switch))
+    assert estimates[switch].omega[0] == 0.0
+    assert estimator.origin + estimator.side / 2 == pytest.approx(elbows["right"])
+
+
 def test_a_swaying_elbow_moves_dons_pivot_without_a_new_seed() -> None:
     model = ScriptedModel(elbow_of=drifting)
-    _, estimates, origins = run(model, pose_every=3)
+    estimator, estimates, origins = run(model, pose_every=3)
     assert all(np.array_equal(origin, origins[1]) for origin in origins[1:])  # one crop
     from_don = sorted(set(range(1, FRAMES)) - set(model.calls))
     late = [t for t in from_don if t > 60]
     assert late and all(np.hypot(*(estimates[t].keypoints[0] - drifting(t))) < 1.5
                         for t in late)
+    # DON's own pivot (crop px) follows the elbow the pose model sees on each pose frame.
+    pivot = estimator.don.known_pivot * estimator.side / CROP + estimator.origin
+    assert pivot == pytest.approx(drifting(max(model.calls)))
     error = np.degrees([abs(estimates[t].angles[0] - flexion(t)) for t in from_don])
     assert error.mean() < 4.0
 
