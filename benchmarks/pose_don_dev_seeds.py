@@ -18,9 +18,15 @@ frames between, those DON's turns carried and those rolled on at the pose rate. 
 constants of `estimators/pose_don.py` in ``TUNABLE`` can be set with ``--param
 NAME=VALUE`` (repeatable; angles in degrees).
 
+With ``--video FILE`` it scores pose-seeded DON on footage of one's own instead, against
+the real pose model read on every frame (no truth there: agreement with the reference,
+as the `real` suite measures it), split by what gave each estimate. That is the loop for
+developing on real people without touching the shared evaluation clips.
+
     .venv/bin/python benchmarks/pose_don_dev_seeds.py                      # defaults
     .venv/bin/python benchmarks/pose_don_dev_seeds.py --noise 2 --param GAIN=1.0
     .venv/bin/python benchmarks/pose_don_dev_seeds.py --pose-every 4 --no-don
+    .venv/bin/python benchmarks/pose_don_dev_seeds.py --video my_camera.mp4 --param GAIN=1
 """
 
 from __future__ import annotations
@@ -28,6 +34,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+from typing import cast
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
@@ -38,7 +45,7 @@ from imimic_gym.bench import machine
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.dataset import randomised_spec
 from imimic_gym.estimators import pose_don
-from imimic_gym.estimators.pose_model import KEYPOINTS, BodyKeypoints
+from imimic_gym.estimators.pose_model import KEYPOINTS, BodyKeypoints, PoseModel
 from imimic_gym.kinematics import keypoints_to_angles, wrap_angle
 
 ANGLES = {"DISAGREE", "MAX_STEP"}  # constants held in rad, given in degrees
@@ -78,10 +85,11 @@ def run_clip(seed: int, pose_every: int, noise: float, fps: float) -> dict[str, 
     spec = randomised_spec(1, seed, np.random.default_rng(seed)).replace(
         n_frames=300, height=540, width=960, fps=fps)
     clip = load_clip(spec, progress=False)
+    assert clip.truth is not None  # a rendered clip
     keypoints = clip.truth.keypoints.astype(np.float64) * UPSCALE
     oracle = OraclePose(keypoints, noise, seed)
     estimator = pose_don.PoseSeededDON(fps=clip.fps, arm="left", pose_every=pose_every,
-                                       model=oracle)
+                                       model=cast(PoseModel, oracle))  # same calls
     estimator.reset()
     size = (clip.width * UPSCALE, clip.height * UPSCALE)
     angles, sources = [], []
@@ -100,6 +108,37 @@ def run_clip(seed: int, pose_every: int, noise: float, fps: float) -> dict[str, 
             "don_frames": sources.count("don"), "rolled_frames": sources.count("rolled")}
 
 
+def run_video(path: str, pose_every: int) -> None:
+    """Pose-seeded DON on a video of one's own (development footage, not the shared
+    evaluation clips), against the real pose model read on every frame: the RMSE over
+    the frames both read, split by what gave each estimate."""
+    from imimic_gym.clips.video import VideoReader
+    from imimic_gym.estimators.pose import PoseEstimator
+
+    with VideoReader(path).open() as reader:
+        fps = float(reader.fps)
+    reference, estimator = PoseEstimator(fps=fps), pose_don.PoseSeededDON(
+        fps=fps, pose_every=pose_every)
+    reference.reset()
+    estimator.reset()
+    rows = []
+    for frame in VideoReader(path):
+        truth, estimate = reference.update(frame), estimator.update(frame)
+        if truth.trust > 0 and estimate.trust > 0:
+            error = math.degrees(abs(float(wrap_angle(estimate.angles[0] - truth.angles[0]))))
+            rows.append((estimator.source, error))
+    if not rows:
+        print(f"  {path}: the pose model and pose-seeded DON never both read the arm")
+        return
+    errors = np.array([e for _, e in rows])
+    split = "; ".join(f"{name} {np.sqrt(np.mean(np.square(part))):.2f} ({len(part)})"
+                      for name in ("pose", "don", "rolled")
+                      if (part := [e for source, e in rows if source == name]))
+    print(f"  {path}: RMSE vs the every-frame pose model {np.sqrt(np.mean(errors ** 2)):.2f} "
+          f"deg over {len(errors)} frames, largest {errors.max():.1f}; by source: {split}; "
+          f"pose frames {estimator.pose_frames}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, nargs=2, default=(700, 712), metavar=("FIRST", "END"),
@@ -113,6 +152,10 @@ def main() -> None:
                              "less a frame, as a slow movement does (default: 30)")
     parser.add_argument("--no-don", action="store_true",
                         help="DON never reads: between pose frames the estimate only rolls on")
+    parser.add_argument("--video", action="append", default=[], metavar="FILE",
+                        help="instead of rendered clips, score it on this video of your own "
+                             "against the real pose model read on every frame (repeatable; "
+                             "not the shared evaluation clips)")
     parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                         help="a constant of estimators/pose_don.py: " + ", ".join(TUNABLE)
                              + " (angles in degrees)")
@@ -125,9 +168,14 @@ def main() -> None:
         setattr(pose_don, name, math.radians(number) if name in ANGLES else number)
     if args.no_don:
         pose_don.PoseSeededDON._don_direction = lambda self, don: None  # type: ignore[method-assign]
+    settings = " ".join(args.param + ["no DON"] * args.no_don) or "defaults"
+    if args.video:
+        print(f"{machine()}\npose_every {args.pose_every}, {settings}")
+        for path in args.video:
+            run_video(path, args.pose_every)
+        return
     rows = [run_clip(seed, args.pose_every, args.noise, args.fps)
             for seed in range(*args.seeds)]
-    settings = " ".join(args.param + ["no DON"] * args.no_don) or "defaults"
     print(f"{machine()}\npose_every {args.pose_every}, noise {args.noise:g} px, {settings}, "
           f"{args.fps:g} fps, seeds {args.seeds[0]}-{args.seeds[1] - 1}")
     clips = " ".join(f"{r['rmse_vs_read']:.1f}" for r in rows)
