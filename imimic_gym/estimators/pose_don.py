@@ -133,7 +133,6 @@ class PoseSeededDON:
         self.at_pose = 0.0  # rad: the estimate on the last pose frame
         self.jump: float | None = None  # rad a frame: the last pose frame's jump, if it was one
         self.carried = False  # DON turned the estimate since the last pose frame
-        self.keypoints = np.zeros((2, 2))  # the last estimate's elbow and wrist, input px
 
     # Seeding ------------------------------------------------------------------------
     def _seed(self, frame: np.ndarray, reading: ArmReading) -> None:
@@ -256,13 +255,13 @@ class PoseSeededDON:
     def _estimate(self, angle: float, trust: float, keypoints: np.ndarray) -> Estimate:
         if not self.reading:
             self.path.reset()  # seen again: no velocity from the gap
-        self.angle, self.reading, self.keypoints = angle, True, np.asarray(keypoints)
+        self.angle, self.reading = angle, True
         self.path.update((angle,))
         angles, omega, alpha = np.array([angle]), self.path.omega(), self.path.alpha()
         torque = (self.torque_model(angles, omega, alpha) if self.torque_model is not None
                   else np.zeros(1))
         return Estimate(angles=angles, omega=omega, alpha=alpha, torque=torque,
-                        trust=min(max(trust, 0.0), 1.0), keypoints=self.keypoints)
+                        trust=min(max(trust, 0.0), 1.0), keypoints=keypoints)
 
     def _hold(self) -> Estimate:
         self.reading = False
