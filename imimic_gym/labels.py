@@ -11,7 +11,7 @@ hand, and a start that CVAT or Label Studio can import for a person to correct.
 from __future__ import annotations
 
 import json
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -42,86 +42,112 @@ class PoseLabels:
     side: tuple[str, ...]
 
 
-def label_frames(frames: Iterable[np.ndarray], fps: float, arm: str = "auto",
-                 min_confidence: float = 0.5,
-                 on_frame: Any = None) -> PoseLabels:
-    """`PoseLabels` of (H, W, 3) uint8 RGB ``frames``, read in order. ``on_frame(i,
-    frame)`` is called on each (to write it out, or show progress)."""
+def _readings(frames: Iterable[np.ndarray], fps: float, arm: str,
+              min_confidence: float) -> Iterator[tuple[np.ndarray, Any]]:
+    """Each of ``frames`` with the pose model's `ArmReading` of it (None: no reading)."""
     from imimic_gym.estimators.pose import PoseEstimator
 
     # The estimator's own floor: the same arm is chosen as `imimic mimic` would choose,
     # and a frame below the floor is no reading (unlabelled).
     estimator = PoseEstimator(n_links=1, fps=fps, arm=arm, min_confidence=min_confidence)
     estimator.reset()
-    keypoints, confidence, sides = [], [], []
     for i, frame in enumerate(frames):
-        reading = estimator.read(frame, time_s=i / fps)
-        if on_frame is not None:
-            on_frame(i, frame)
-        if reading is None:
-            keypoints.append(np.full((3, 2), np.nan))
-            confidence.append(np.zeros(3))
-            sides.append("")
-            continue
-        keypoints.append(reading.keypoints)
-        confidence.append(reading.confidence)
-        sides.append(reading.side)
-    if not keypoints:
+        yield frame, estimator.read(frame, time_s=i / fps)
+
+
+def _labels(readings: Sequence[Any], min_confidence: float) -> PoseLabels:
+    """`PoseLabels` of a list of `ArmReading` or None, one a frame."""
+    if not readings:
         raise ValueError("no frames to label")
-    confidence_array = np.asarray(confidence, dtype=np.float32)
-    labelled = confidence_array.min(axis=1) >= min_confidence
+    keypoints = [np.full((3, 2), np.nan) if r is None else r.keypoints for r in readings]
+    confidence = np.asarray([np.zeros(3) if r is None else r.confidence for r in readings],
+                            dtype=np.float32)
+    labelled = confidence.min(axis=1) >= min_confidence
     points = np.asarray(keypoints, dtype=np.float32)
     points[~labelled] = np.nan
-    return PoseLabels(points, confidence_array, labelled, tuple(sides))
+    return PoseLabels(points, confidence, labelled,
+                      tuple("" if r is None else r.side for r in readings))
+
+
+def label_frames(frames: Iterable[np.ndarray], fps: float, arm: str = "auto",
+                 min_confidence: float = 0.5,
+                 on_frame: Any = None) -> PoseLabels:
+    """`PoseLabels` of (H, W, 3) uint8 RGB ``frames``, read in order. ``on_frame(i,
+    frame)`` is called on each (to write it out, or show progress)."""
+    readings = []
+    for i, (frame, reading) in enumerate(_readings(frames, fps, arm, min_confidence)):
+        if on_frame is not None:
+            on_frame(i, frame)
+        readings.append(reading)
+    return _labels(readings, min_confidence)
 
 
 def label_video(source: str | Path, out: str | Path, arm: str = "auto",
-                min_confidence: float = 0.5, progress: bool = True) -> dict[str, Any]:
+                min_confidence: float = 0.5, progress: bool = True,
+                fps: float | None = None) -> dict[str, Any]:
     """Write ``out/images/frame_<i>.jpg`` for every frame of ``source`` and
     ``out/labels.json``: COCO keypoints with one ``arm`` category (shoulder, elbow,
     wrist; CVAT's and Label Studio's COCO-keypoints import), one image per frame with its
     ``frame_index``, and an annotation on each frame the pose model labelled (v = 2).
     `clips.annotations.read_annotations` and ``training/train_cnn.py --annotations
     out/labels.json --images out/images`` read it; so does
-    ``ImitateVideo-v0(clip=source, annotations=out/labels.json)``. Returns a summary."""
+    ``ImitateVideo-v0(clip=source, annotations=out/labels.json)``. ``fps``: the frame
+    rate of a source that reports none (an image sequence).
+
+    The source is opened before anything is written (`VideoOpenError`,
+    `VideoFormatError`). Ctrl-C stops early and still writes the labels of the frames
+    read so far. Returns a summary: frames, labelled, fps, the paths, ``ended`` (why the
+    labelling stopped) and ``reported_frames`` (the container's count, or None)."""
     from tqdm.auto import tqdm
 
     from imimic_gym.clips.video import VideoReader
 
     out = Path(out)
-    (out / "images").mkdir(parents=True, exist_ok=True)
-    reader = VideoReader(source)
+    reader = VideoReader(source, fps=fps).open()
+    rate, reported = float(reader.fps), reader.frame_count
     images: list[dict[str, Any]] = []
-    bar = tqdm(unit="frame", desc=f"label {Path(str(source)).name}", disable=not progress)
-
-    def write(i: int, frame: np.ndarray) -> None:
-        name = f"frame_{i:06d}.jpg"
-        if not cv2.imwrite(str(out / "images" / name), cv2.cvtColor(frame, cv2.COLOR_RGB2BGR),
-                           [cv2.IMWRITE_JPEG_QUALITY, 95]):
-            raise OSError(f"cannot write {out / 'images' / name}")
-        images.append({"id": i + 1, "file_name": name, "width": int(frame.shape[1]),
-                       "height": int(frame.shape[0]), "frame_index": i})
-        bar.update(1)
-
-    with reader.open():
-        fps = float(reader.fps)
-        labels = label_frames(reader, fps, arm=arm, min_confidence=min_confidence,
-                              on_frame=write)
-    bar.close()
+    readings: list[Any] = []
+    ended = "end of footage"
+    try:
+        (out / "images").mkdir(parents=True, exist_ok=True)
+        with tqdm(total=reported, unit="frame", desc=f"label {Path(str(source)).name}",
+                  disable=not progress) as bar:
+            for i, (frame, reading) in enumerate(
+                    _readings(reader, rate, arm, min_confidence)):
+                name = f"frame_{i:06d}.jpg"
+                if not cv2.imwrite(str(out / "images" / name),
+                                   cv2.cvtColor(frame, cv2.COLOR_RGB2BGR),
+                                   [cv2.IMWRITE_JPEG_QUALITY, 95]):
+                    raise OSError(f"cannot write {out / 'images' / name}")
+                images.append({"id": i + 1, "file_name": name, "width": int(frame.shape[1]),
+                               "height": int(frame.shape[0]), "frame_index": i})
+                readings.append(reading)
+                bar.update(1)
+    except KeyboardInterrupt:
+        if not readings:
+            raise
+        ended = "stopped by Ctrl-C"
+        del images[len(readings):]  # an image whose reading Ctrl-C cut off
+    finally:
+        reader.close()
+    labels = _labels(readings, min_confidence)
+    if ended == "end of footage" and reported is not None and len(readings) < reported:
+        ended = (f"footage ended early: {len(readings)} of the {reported} frames its "
+                 f"container reports (a truncated or damaged file?)")
     annotations: list[dict[str, Any]] = []
-    for i in np.flatnonzero(labels.labelled):
-        points = labels.keypoints[i].astype(np.float64)
+    for k in np.flatnonzero(labels.labelled):
+        points = labels.keypoints[k].astype(np.float64)
         x0, y0 = points.min(axis=0)
         x1, y1 = points.max(axis=0)
         annotations.append({
-            "id": len(annotations) + 1, "image_id": int(i) + 1, "category_id": 1,
+            "id": len(annotations) + 1, "image_id": int(k) + 1, "category_id": 1,
             "keypoints": [v for (x, y) in points.round(3).tolist() for v in (x, y, 2)],
             "num_keypoints": 3, "iscrowd": 0,
             "bbox": [round(float(x0), 3), round(float(y0), 3), round(float(x1 - x0), 3),
                      round(float(y1 - y0), 3)],
             "area": round(float((x1 - x0) * (y1 - y0)), 3),
-            "attributes": {"side": labels.side[i],
-                           "confidence": labels.confidence[i].round(3).tolist()},
+            "attributes": {"side": labels.side[k],
+                           "confidence": labels.confidence[k].round(3).tolist()},
         })
     data = {
         "info": {"description": f"pose-model labels of {source} (imimic label): a model's "
@@ -132,5 +158,6 @@ def label_video(source: str | Path, out: str | Path, arm: str = "auto",
                         "keypoints": list(ARM_KEYPOINTS), "skeleton": [[1, 2], [2, 3]]}],
     }
     (out / "labels.json").write_text(json.dumps(data, indent=1) + "\n")
-    return {"frames": len(images), "labelled": len(annotations), "fps": fps,
-            "labels": str(out / "labels.json"), "images": str(out / "images")}
+    return {"frames": len(images), "labelled": len(annotations), "fps": rate,
+            "labels": str(out / "labels.json"), "images": str(out / "images"),
+            "ended": ended, "reported_frames": reported}

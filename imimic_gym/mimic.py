@@ -243,11 +243,13 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
     source = str(clip.meta.get("path", "the clip"))
     live = clip.meta.get("source") == "camera"
     known_length = getattr(clip.frames, "length_known", True)
+    cut_short = getattr(clip.frames, "cut_short", False)
     why = (f"{estimator.upper()} (window {needed - 1})" if needed > 1
            else f"{estimator.upper()}")
     try:
         if not live and known_length:
-            require_frames(len(clip), needed, source, why)
+            require_frames(len(clip), needed,
+                           f"{source}, cut to its first frames," if cut_short else source, why)
         env = RegistryObservation(
             gym.make("ImitateVideo-v0", clip=clip, control=control, render_mode="rgb_array",
                      render_height=preview_height),
@@ -284,8 +286,15 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
             if servo is not None:
                 servo.close()
     frames = len(log.time)
-    if frames and live and frames < len(clip):
-        ended = "camera stopped" if ended == "end of footage" else ended
+    stopped = ended != "end of footage"  # by Ctrl-C: too few frames is then no error
+    if not stopped and frames:
+        if live and frames < len(clip):
+            ended = "camera stopped"
+        elif known_length and frames < len(clip):
+            ended = (f"footage ended early: {frames} of the {len(clip)} frames its container "
+                     f"reports (a truncated or damaged file?)")
+        elif cut_short:
+            ended = f"stopped at the {len(clip)} frames asked for"
     if frames:
         plot_tracking(log.trajectory(), out / "angles.png", target_label=estimator.upper(),
                       title=f"{Path(source).name}: {estimator.upper()} estimate (solid) vs "
@@ -311,5 +320,5 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
     if servo is not None:
         summary["servo_commands_sent"], summary["servo_errors"] = servo.sent, servo.errors
     (out / "mimic.json").write_text(json.dumps(summary, indent=2) + "\n")
-    require_frames(frames, needed if ended == "end of footage" else 0, source, why)
+    require_frames(frames, 0 if stopped or live else needed, source, why)
     return summary

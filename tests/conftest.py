@@ -31,6 +31,25 @@ def servo_mp4(servo_clip, tmp_path_factory: pytest.TempPathFactory):
                        servo_clip.fps)
 
 
+@pytest.fixture(scope="session")
+def truncated_avi(tmp_path_factory: pytest.TempPathFactory):
+    """An MJPEG AVI cut in half: its header still promises 30 frames (64x48 noise, so each
+    frame is about the same size), the file holds about 14 that decode."""
+    import cv2
+    import numpy as np
+
+    folder = tmp_path_factory.mktemp("truncated")
+    writer = cv2.VideoWriter(str(folder / "whole.avi"), cv2.VideoWriter_fourcc(*"MJPG"), 30,
+                             (64, 48))
+    noise = np.random.default_rng(0)
+    for _ in range(30):
+        writer.write(noise.integers(0, 256, (48, 64, 3), dtype=np.uint8))
+    writer.release()
+    data = (folder / "whole.avi").read_bytes()
+    (folder / "cut.avi").write_bytes(data[:len(data) // 2])
+    return folder / "cut.avi"
+
+
 @pytest.fixture(scope="module")
 def local_ray():
     """A real Ray on this machine (the ray extra; make setup installs it): 2 CPUs, no

@@ -138,6 +138,18 @@ def test_scenarios_lists_every_scenario(capsys) -> None:
      "--servo-range takes LOW HIGH in degrees with LOW < HIGH, got 120 0"),
     (["mimic", "--video", "x.mp4", "--joint-range", "60", "-60"],
      "--joint-range takes LOW HIGH in degrees with LOW < HIGH, got 60 -60"),
+    (["demo", "--seed", "-1"], "--seed: expected a whole number of at least 0, got -1"),
+    (["clip", "--seed", "-1"], "--seed: expected a whole number of at least 0, got -1"),
+    (["eval", "--first-seed", "-1"],
+     "--first-seed: expected a whole number of at least 0, got -1"),
+    (["mimic", "--video", "x.mp4", "--reference-direction", "nan"],
+     "--reference-direction: expected a finite number, got nan"),
+    (["mimic", "--video", "x.mp4", "--pivot", "inf", "5"],
+     "--pivot: expected a finite number, got inf"),
+    (["mimic", "--video", "x.mp4", "--servo-zero", "500"],
+     "--servo-zero 500 lies outside --servo-range 0 120"),
+    (["label", "--video", "x.mp4", "--min-confidence", "1.5"],
+     "--min-confidence: expected a number from 0 to 1, got 1.5"),
 ])
 def test_a_users_mistake_is_one_line_and_exit_code_2(argv, message, capsys) -> None:
     with pytest.raises(SystemExit) as stop:

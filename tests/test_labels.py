@@ -6,6 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import cv2
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -15,6 +16,7 @@ from imimic_gym.clips import get_scenario, load_clip
 from imimic_gym.clips.annotations import read_annotations
 from imimic_gym.clips.video_writer import write_video
 from imimic_gym.kinematics import keypoints_to_angles
+from imimic_gym.labels import label_video
 
 TRAIN = Path(__file__).resolve().parents[1] / "training" / "train_cnn.py"
 
@@ -75,6 +77,46 @@ def test_pose_annotations_give_the_env_flagged_pseudo_truth(person_video) -> Non
     rendered.close()
 
 
-def test_label_names_a_missing_video_in_one_line(tmp_path, capsys) -> None:
-    assert main(["label", "--video", str(tmp_path / "gone.mp4")]) == 2
+def test_label_names_a_missing_video_in_one_line_and_writes_nothing(tmp_path, capsys) -> None:
+    out = tmp_path / "out"
+    assert main(["label", "--video", str(tmp_path / "gone.mp4"), "--out", str(out)]) == 2
     assert "gone.mp4" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_label_reads_an_image_sequence_at_the_rate_given(person_video, tmp_path,
+                                                         capsys) -> None:
+    clip, _ = person_video
+    for i, frame in enumerate(clip.frames[:6]):
+        cv2.imwrite(str(tmp_path / f"f_{i:03d}.png"), cv2.cvtColor(frame, cv2.COLOR_RGB2BGR))
+    pattern, out = str(tmp_path / "f_%03d.png"), tmp_path / "out"
+    assert main(["label", "--video", pattern, "--out", str(out)]) == 2
+    assert "does not report its frame rate: give it one (--fps" in capsys.readouterr().err
+    assert main(["label", "--video", pattern, "--out", str(out), "--fps", "30"]) == 0
+    assert len(json.loads((out / "labels.json").read_text())["images"]) == 6
+
+
+def test_label_says_when_a_file_holds_fewer_frames_than_it_reports(truncated_avi,
+                                                                     tmp_path) -> None:
+    summary = label_video(truncated_avi, tmp_path / "out", progress=False)
+    assert summary["reported_frames"] == 30 and 0 < summary["frames"] < 30
+    assert summary["ended"].startswith(f"footage ended early: {summary['frames']} of the 30 ")
+
+
+def test_ctrl_c_while_labelling_keeps_the_frames_read(person_video, tmp_path,
+                                                      monkeypatch) -> None:
+    from imimic_gym.estimators.pose import PoseEstimator
+
+    read, calls = PoseEstimator.read, []
+
+    def interrupted_at_the_fifth(self, *args, **kwargs):
+        calls.append(1)
+        if len(calls) == 5:
+            raise KeyboardInterrupt
+        return read(self, *args, **kwargs)
+
+    monkeypatch.setattr(PoseEstimator, "read", interrupted_at_the_fifth)
+    summary = label_video(person_video[1], tmp_path / "out", progress=False)
+    assert summary["ended"] == "stopped by Ctrl-C" and summary["frames"] == 4
+    coco = json.loads((tmp_path / "out" / "labels.json").read_text())
+    assert [image["frame_index"] for image in coco["images"]] == [0, 1, 2, 3]

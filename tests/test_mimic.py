@@ -77,6 +77,19 @@ def test_more_links_than_don_follows_is_refused() -> None:
         main(["mimic", "--video", "x.mp4", "--estimator", "don", "--links", "4"])
 
 
+def test_a_file_holding_fewer_frames_than_it_reports_says_so(truncated_avi,
+                                                             tmp_path) -> None:
+    summary = run_mimic(stream_video(truncated_avi), tmp_path / "out", progress=False)
+    assert 11 <= summary["frames"] < 30
+    assert summary["ended"].startswith(f"footage ended early: {summary['frames']} of the 30 ")
+
+
+def test_a_run_cut_to_a_length_says_so(servo_mp4, tmp_path) -> None:
+    clip = stream_video(servo_mp4, max_frames=20)
+    summary = run_mimic(clip, tmp_path / "out", progress=False)
+    assert summary["frames"] == 20 and summary["ended"] == "stopped at the 20 frames asked for"
+
+
 def test_a_stream_that_ends_early_keeps_everything_written(tmp_path) -> None:
     # An MJPEG stream reports no length, like a camera: the run ends when frames stop.
     frames = [cv2.imencode(".jpg", np.full((48, 64, 3), 10 * i, np.uint8))[1].tobytes()

@@ -179,7 +179,8 @@ def _add_clip_choice(parser: argparse.ArgumentParser, names: list[str],
     """--scenario, --seed and --frames: which rendered clip."""
     parser.add_argument("--scenario", default=scenario, choices=names,
                         help="which demonstrator clip (default: %(default)s)")
-    parser.add_argument("--seed", type=int, default=0, help="clip seed (default: %(default)s)")
+    parser.add_argument("--seed", type=at_least(0), default=0,
+                        help="clip seed, 0 or more (default: %(default)s)")
     parser.add_argument("--frames", type=at_least(2), default=None,
                         help="clip length in frames (default: the scenario's, 150 = 5 s)")
 
@@ -264,4 +265,7 @@ def main(argv: list[str] | None = None) -> int:
     except CacheSettingError as error:
         print(f"imimic {args.command}: {error}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # commands that keep partial work catch it themselves
+        print(f"imimic {args.command}: stopped by Ctrl-C", file=sys.stderr)
+        return 130
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from pathlib import Path
 
 
@@ -47,6 +48,25 @@ def positive(text: str) -> float:
     return value
 
 
+def finite(text: str) -> float:
+    """An argparse type: a finite number (no nan or inf)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text}")
+    return value
+
+
+def unit_interval(text: str) -> float:
+    """An argparse type: a number in [0, 1] (a confidence or a fraction)."""
+    value = finite(text)
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"expected a number from 0 to 1, got {text}")
+    return value
+
+
 def estimator_names(video_only: bool = False) -> tuple[str, ...]:
     """The registered estimators (`estimators.registry`) for ``--estimator`` choices;
     ``video_only`` leaves out those that read the truth rather than the video."""
@@ -77,7 +97,7 @@ def add_clip_seeds(parser: argparse.ArgumentParser, flag: str = "") -> None:
     lead = f"{flag}: " if flag else ""
     parser.add_argument("--episodes", type=at_least(1), default=3,
                         help=f"{lead}clips per scenario (default: %(default)s)")
-    parser.add_argument("--first-seed", type=int, default=1000,
+    parser.add_argument("--first-seed", type=at_least(0), default=1000,
                         help=f"{lead}first clip seed (default: %(default)s, the first "
                              "held-out one)")
     parser.add_argument("--frames", type=at_least(2), default=None,

@@ -8,7 +8,15 @@ import sys
 from pathlib import Path
 from typing import cast
 
-from imimic_gym.cli.common import CommandError, at_least, estimator_names, positive, print_table
+from imimic_gym.cli.common import (
+    CommandError,
+    at_least,
+    estimator_names,
+    finite,
+    positive,
+    print_table,
+    unit_interval,
+)
 
 # What `imimic mimic` runs unless told: it finds a person and their moving arm by itself.
 MIMIC_ESTIMATOR = "pose"
@@ -28,6 +36,10 @@ def cmd_mimic(args: argparse.Namespace) -> int:
         if pair is not None and not pair[0] < pair[1]:
             raise CommandError(f"imimic mimic: {option} takes LOW HIGH in degrees with LOW < "
                              f"HIGH, got {pair[0]:g} {pair[1]:g}")
+    low, high = args.servo_range
+    if not low <= args.servo_zero <= high:
+        raise CommandError(f"imimic mimic: --servo-zero {args.servo_zero:g} lies outside "
+                           f"--servo-range {low:g} {high:g}")
     if args.preview_height < 0:
         raise CommandError(f"imimic mimic: --preview-height takes 0 (the footage's size) or a "
                          f"positive number of rows, got {args.preview_height}")
@@ -112,15 +124,14 @@ def cmd_label(args: argparse.Namespace) -> int:
     from imimic_gym.clips.video import VideoFormatError, VideoOpenError
     from imimic_gym.labels import label_video
 
-    if not 0.0 <= args.min_confidence <= 1.0:
-        raise CommandError(f"imimic label: --min-confidence is in [0, 1], got "
-                         f"{args.min_confidence}")
     try:
         summary = label_video(args.video, args.out, arm=args.arm,
-                              min_confidence=args.min_confidence)
+                              min_confidence=args.min_confidence, fps=args.fps)
     except (VideoOpenError, VideoFormatError, OSError) as err:
         print(f"imimic label: {err}", file=sys.stderr)
         return 2
+    if summary["ended"] != "end of footage":
+        print(f"imimic label: {summary['ended']}", file=sys.stderr)
     print(f"labelled {summary['labelled']} of {summary['frames']} frames: wrote "
           f"{summary['labels']} and {summary['images']}/ (train: python training/train_cnn.py "
           f"--annotations {summary['labels']} --images {summary['images']})")
@@ -143,9 +154,11 @@ def add_label(sub: argparse._SubParsersAction) -> None:
                        help="a recorded video (anything OpenCV reads) or an image pattern")
     label.add_argument("--out", default="labels_out", help="output folder (default: "
                                                            "%(default)s)")
+    label.add_argument("--fps", type=positive, default=None,
+                       help="frame rate of a source that reports none (an image pattern)")
     label.add_argument("--arm", default="auto", choices=("auto", "left", "right"),
                        help="the person's arm to label (default: auto, the one that moves)")
-    label.add_argument("--min-confidence", type=float, default=0.5,
+    label.add_argument("--min-confidence", type=unit_interval, default=0.5,
                        help="label a frame when shoulder, elbow and wrist all reach this "
                             "confidence (default: %(default)s)")
     label.set_defaults(func=cmd_label)
@@ -185,10 +198,10 @@ def add_mimic(sub: argparse._SubParsersAction) -> None:
     mimic.add_argument("--control", default="position",
                        choices=("position", "velocity", "torque"),
                        help="robot actuation (default: %(default)s, the paper's servo)")
-    mimic.add_argument("--reference-direction", type=float, default=-90.0, metavar="DEG",
+    mimic.add_argument("--reference-direction", type=finite, default=-90.0, metavar="DEG",
                        help="image direction of the fixed reference link, degrees CCW from "
                             "image right (default: %(default)s = image down)")
-    mimic.add_argument("--joint-range", type=float, nargs=2, default=None,
+    mimic.add_argument("--joint-range", type=finite, nargs=2, default=None,
                        metavar=("LOW", "HIGH"),
                        help="the robot's joint range in degrees from the reference (default: "
                             "a human arm's for the estimators that find a person, -175 175 "
@@ -197,7 +210,7 @@ def add_mimic(sub: argparse._SubParsersAction) -> None:
     mimic.add_argument("--arm", default="auto", choices=("auto", "left", "right"),
                        help="which of the person's arms to copy (their own left or right; "
                             "default: auto, the arm that moves)")
-    mimic.add_argument("--pivot", type=float, nargs=2, default=None, metavar=("X", "Y"),
+    mimic.add_argument("--pivot", type=finite, nargs=2, default=None, metavar=("X", "Y"),
                        help="the joint's pixel position if known (default: found by DON)")
     mimic.add_argument("--fps", type=positive, default=None,
                        help="frame rate for sources that report none (image patterns; "
@@ -210,10 +223,10 @@ def add_mimic(sub: argparse._SubParsersAction) -> None:
                             "(protocol: imimic_gym/servo.py; sketch: firmware/servo_arm/)")
     mimic.add_argument("--baud", type=at_least(1), default=115200,
                        help="serial speed (default: %(default)s)")
-    mimic.add_argument("--servo-range", type=float, nargs=2, default=(0.0, 120.0),
+    mimic.add_argument("--servo-range", type=finite, nargs=2, default=(0.0, 120.0),
                        metavar=("LOW", "HIGH"),
                        help="the servo's angle range, degrees (default: 0 120)")
-    mimic.add_argument("--servo-zero", type=float, default=60.0, metavar="DEG",
+    mimic.add_argument("--servo-zero", type=finite, default=60.0, metavar="DEG",
                        help="servo angle of joint angle 0 (default: %(default)s)")
     mimic.add_argument("--realtime", action="store_true",
                        help="play a file at its own frame rate rather than as fast as "

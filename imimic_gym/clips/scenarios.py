@@ -8,6 +8,8 @@ import math
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Literal
 
+import numpy as np
+
 from imimic_gym.arms import MAX_LINKS, ArmSpec, Control, Plane
 from imimic_gym.clips.motion import MOTION_PROFILES, MotionProfile
 from imimic_gym.clips.types import Clip
@@ -157,6 +159,9 @@ class ClipSpec:
             value = getattr(self, name)
             if not (isinstance(value, int) and value > 0):
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        if not (isinstance(self.seed, (int, np.integer)) and self.seed >= 0):
+            raise ValueError(f"seed must be a whole number >= 0 (numpy's generators take no "
+                             f"negative seeds), got {self.seed!r}")
         if not self.fps > 0:
             raise ValueError(f"fps must be positive, got {self.fps}")
         if not self.camera_distance > 0:

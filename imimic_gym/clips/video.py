@@ -142,7 +142,10 @@ class VideoReader:
             self.fps = float(reported) if math.isfinite(reported) and reported > 0 else LIVE_FPS
         else:
             capture.release()
-            raise VideoFormatError(f"{self.name} does not report its frame rate; pass fps=")
+            raise VideoFormatError(
+                f"{self.name} does not report its frame rate: give it one (--fps on the "
+                f"command line; fps= to load_video or stream_video, whose Clip the env "
+                f"takes as clip=)")
         count = capture.get(cv2.CAP_PROP_FRAME_COUNT)
         self.frame_count = int(count) if not self.live and 0 < count < 1e9 else None
         self.width = int(capture.get(cv2.CAP_PROP_FRAME_WIDTH))
@@ -171,6 +174,9 @@ class VideoReader:
                 self.skipped_frames += failures
                 return frame
             failures += 1
+            if (self.frame_count is not None
+                    and self.frames_read + self.skipped_frames + failures >= self.frame_count):
+                return None  # past the last frame the container reports: no retries
             if self.live:
                 time.sleep(0.05)  # a camera that hiccups gets a moment before it is given up
         return None
@@ -236,8 +242,10 @@ class FrameStream:
     Asking for a frame that has left the buffer raises IndexError (a live stream cannot
     rewind); asking past the end raises `StreamEndedError`. ``len()`` is the container's
     frame count (capped at ``max_frames``), else ``max_frames``, else `UNBOUNDED`
-    (``length_known`` is False: a live camera runs until it stops); a stream may end
-    sooner. The first frame is read on construction (it fixes the shape).
+    (``length_known`` is False: a live camera runs until it stops; ``cut_short`` is True
+    when ``max_frames`` set the length); a stream may end sooner (a truncated file's
+    container may promise more frames than it holds). The first frame is read on
+    construction (it fixes the shape).
     """
 
     dtype = np.dtype(np.uint8)
@@ -259,6 +267,9 @@ class FrameStream:
             limit = min(limit, max_frames)
         self.length_known = limit is not None
         self._length = max(1, limit) if limit is not None else UNBOUNDED
+        # True when max_frames, not the end of the source, sets the length.
+        self.cut_short = max_frames is not None and (reader.frame_count is None
+                                                     or max_frames < reader.frame_count)
         self.shape = (self._length, *first.shape)
 
     def _pull(self) -> bool:

@@ -34,7 +34,9 @@ def test_overrides_change_the_key_but_the_name_does_not() -> None:
      ("width", 0, "width must be a positive integer, got 0"),
      ("height", -5, "height must be a positive integer, got -5"),
      ("occluder", "total", "occluder must be one of"),
-     ("background", "space", "background must be one of")],
+     ("background", "space", "background must be one of"),
+     ("seed", -1, "seed must be a whole number >= 0 .*, got -1"),
+     ("seed", 1.5, "seed must be a whole number >= 0 .*, got 1.5")],
 )
 def test_bad_spec_values_are_named(field: str, value: object, message: str) -> None:
     with pytest.raises(ValueError, match=message):
