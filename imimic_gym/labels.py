@@ -10,7 +10,11 @@ hand, and a start that CVAT or Label Studio can import for a person to correct.
 
 from __future__ import annotations
 
+import hashlib
 import json
+import os
+import tempfile
+import zipfile
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,7 +25,7 @@ import numpy as np
 
 from imimic_gym.clips.annotations import ARM_KEYPOINTS
 
-__all__ = ["PoseLabels", "label_frames", "label_video"]
+__all__ = ["PoseLabels", "label_frames", "label_video", "video_labels"]
 
 
 @dataclass(frozen=True)
@@ -80,6 +84,63 @@ def label_frames(frames: Iterable[np.ndarray], fps: float, arm: str = "auto",
             on_frame(i, frame)
         readings.append(reading)
     return _labels(readings, min_confidence)
+
+
+LABELS_VERSION = 1  # of the cached labels' layout and of how they are made
+
+
+def _cached_labels_path(source: str | Path, n_frames: int, fps: float, arm: str,
+                        min_confidence: float) -> Path | None:
+    """Where `video_labels` keeps a file's labels: named by a hash of the file (path,
+    size, modification time), the frames read, the settings and the pose model's version.
+    None for a source that is no single file (an image pattern)."""
+    from imimic_gym.clips.cache import cache_dir
+    from imimic_gym.estimators.pose_model import MEDIAPIPE_VERSION
+
+    path = Path(source)
+    if not path.is_file():
+        return None
+    stat = path.stat()
+    key = json.dumps([str(path.resolve()), stat.st_size, stat.st_mtime_ns, n_frames, fps, arm,
+                      min_confidence, MEDIAPIPE_VERSION, LABELS_VERSION])
+    return cache_dir() / f"pose-labels-{hashlib.sha256(key.encode()).hexdigest()[:32]}.npz"
+
+
+def video_labels(source: str | Path, frames: np.ndarray, fps: float, arm: str = "auto",
+                 min_confidence: float = 0.5, progress: bool = True) -> PoseLabels:
+    """`label_frames` of ``frames`` (T, H, W, 3) uint8 RGB, all the frames read from the
+    file ``source``, kept in the clip cache (`clips.cache.cache_dir`), so that the env
+    made again on the same file (a copy, an unpickled env, each worker of a vector env)
+    reads them rather than running the pose model over the video again. A cached file
+    that cannot be read is labelled anew. ``progress``: a progress bar while labelling."""
+    from tqdm.auto import tqdm
+
+    cached = _cached_labels_path(source, len(frames), fps, arm, min_confidence)
+    if cached is not None and cached.exists():
+        try:
+            with np.load(cached, allow_pickle=False) as z:
+                labels = PoseLabels(z["keypoints"], z["confidence"], z["labelled"],
+                                    tuple(str(side) for side in z["side"]))
+            if len(labels.labelled) == len(frames):
+                return labels
+        except (OSError, ValueError, KeyError, zipfile.BadZipFile):
+            pass  # damaged or foreign: label anew
+    with tqdm(total=len(frames), unit="frame", desc=f"pose labels {Path(source).name}",
+              disable=not progress) as bar:
+        labels = label_frames(frames, fps, arm=arm, min_confidence=min_confidence,
+                              on_frame=lambda i, frame: bar.update(1))
+    if cached is not None:
+        cached.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=cached.parent, prefix=cached.stem, suffix=".tmp")
+        try:
+            with os.fdopen(fd, "wb") as f:
+                np.savez(f, keypoints=labels.keypoints, confidence=labels.confidence,
+                         labelled=labels.labelled, side=np.array(labels.side, dtype=str))
+            os.replace(tmp, cached)  # readers never see half a file
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+    return labels
 
 
 def label_video(source: str | Path, out: str | Path, arm: str = "auto",

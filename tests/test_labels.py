@@ -2,6 +2,7 @@
 the env read back; ``annotations="pose"`` gives the env pseudo-truth, flagged in info."""
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -75,6 +76,29 @@ def test_pose_annotations_give_the_env_flagged_pseudo_truth(person_video) -> Non
     rendered = gym.make("ImitateVideo-v0", scenario="default", n_frames=5)
     assert rendered.reset(seed=0)[1]["truth_source"] == "render"
     rendered.close()
+
+
+def test_pose_labels_are_made_once_per_file(person_video, monkeypatch) -> None:
+    import copy
+
+    import imimic_gym.labels as labels
+
+    _, video = person_video
+    env = gym.make("ImitateVideo-v0", clip=str(video), annotations="pose")  # cached, or made
+    runs = []
+    label_frames = labels.label_frames
+    monkeypatch.setattr(labels, "label_frames",
+                        lambda *a, **k: runs.append(1) or label_frames(*a, **k))
+    twin = copy.deepcopy(env)  # what check_env and each vector-env worker do: read back
+    assert runs == []
+    np.testing.assert_array_equal(twin.unwrapped.clip.truth.angles,
+                                  env.unwrapped.clip.truth.angles)
+    for cached in Path(os.environ["IMIMIC_CACHE_DIR"]).glob("pose-labels-*.npz"):
+        cached.write_bytes(b"damaged")
+    relabelled = gym.make("ImitateVideo-v0", clip=str(video), annotations="pose")
+    assert runs == [1]
+    np.testing.assert_array_equal(relabelled.unwrapped.clip.truth.angles,
+                                  env.unwrapped.clip.truth.angles)
 
 
 def test_label_names_a_missing_video_in_one_line_and_writes_nothing(tmp_path, capsys) -> None:

@@ -42,7 +42,8 @@ def load_video(
         annotations: a COCO-keypoints JSON with shoulder, elbow and wrist per frame (see
             `imimic_gym.clips.annotations`); it becomes ``clip.truth``. ``"pose"``: the
             pose model's arm is the truth (pseudo-truth, `imimic_gym.labels`: frames it
-            is unsure of are interpolated). None: no truth.
+            is unsure of are interpolated; kept in the clip cache, so a second load of
+            the same file does not run the model again). None: no truth.
         n_links: moving links the robot copies (1: the forearm, 2: upper arm and forearm).
         reference_direction: image direction of the fixed reference link, rad CCW from
             image right (default: image down).
@@ -67,10 +68,10 @@ def load_video(
     if annotations == "pose":
         # Pseudo-truth: the pose model's arm on the frames it is sure of (`labels.py`).
         from imimic_gym.clips.annotations import truth_from_keypoints
-        from imimic_gym.labels import label_frames
+        from imimic_gym.labels import video_labels
 
         arm = side if side in ("left", "right") else "auto"
-        labels = label_frames(stacked, reader.fps, arm=arm)
+        labels = video_labels(source, stacked, reader.fps, arm=arm)
         truth = truth_from_keypoints(labels.keypoints, np.repeat(labels.labelled[:, None], 3,
                                                                  axis=1),
                                      reader.fps, n_links, reference_direction,
