@@ -138,6 +138,7 @@ def test_scenarios_lists_every_scenario(capsys) -> None:
      "--servo-range takes LOW HIGH in degrees with LOW < HIGH, got 120 0"),
     (["mimic", "--video", "x.mp4", "--joint-range", "60", "-60"],
      "--joint-range takes LOW HIGH in degrees with LOW < HIGH, got 60 -60"),
+    (["mimic", "--camera", "-1"], "--camera takes a camera index (0, 1, ...) or a stream URL"),
     (["demo", "--seed", "-1"], "--seed: expected a whole number of at least 0, got -1"),
     (["clip", "--seed", "-1"], "--seed: expected a whole number of at least 0, got -1"),
     (["eval", "--first-seed", "-1"],
@@ -160,10 +161,25 @@ def test_a_users_mistake_is_one_line_and_exit_code_2(argv, message, capsys) -> N
     assert message in err.strip().splitlines()[-1] and "Traceback" not in err
 
 
-def test_an_output_folder_that_cannot_be_made_is_one_line(tmp_path, capsys) -> None:
+@pytest.mark.parametrize("command", [["demo", "--frames", "5"], ["clip", "--frames", "5"],
+                                     ["mimic", "--video", "x.mp4"], ["label", "--video", "x.mp4"],
+                                     ["cache"]])
+def test_an_output_folder_that_cannot_be_used_is_one_line_before_any_work(command, tmp_path,
+                                                                         capsys) -> None:
     (tmp_path / "file").write_text("")
-    assert main(["demo", "--out", str(tmp_path / "file" / "out"), "--frames", "5"]) == 2
-    assert "imimic demo:" in capsys.readouterr().err
+    flag = "--cache-dir" if command == ["cache"] else "--out"
+    for out, problem in ((tmp_path / "file", f"is a file; {flag} names the folder"),
+                         (tmp_path / "file" / "out", "cannot be made: ")):
+        with pytest.raises(SystemExit) as stop:
+            main([*command, flag, str(out)])
+        assert stop.value.code == 2
+        assert f"imimic {command[0]}: {flag} {out} {problem}" in capsys.readouterr().err
+
+
+def test_a_refused_demo_leaves_no_output_folder(tmp_path) -> None:
+    with pytest.raises(SystemExit):
+        main(["demo", "--estimator", "pose", "--frames", "5", "--out", str(tmp_path / "o")])
+    assert not (tmp_path / "o").exists()
 
 
 def test_a_bad_cache_bound_is_one_line(tmp_path, capsys, monkeypatch) -> None:
@@ -180,3 +196,12 @@ def test_a_pivot_outside_the_frame_is_named(servo_mp4, capsys) -> None:
               "-5"])
     assert stop.value.code == 2
     assert "--pivot 9999 -5 lies outside the 320x240 frame" in capsys.readouterr().err
+
+
+def test_version_names_the_package(capsys) -> None:
+    import imimic_gym
+
+    with pytest.raises(SystemExit) as stop:
+        main(["--version"])
+    assert stop.value.code == 0
+    assert capsys.readouterr().out.strip() == f"imimic_gym {imimic_gym.__version__}"

@@ -8,12 +8,13 @@ import sys
 from pathlib import Path
 from typing import Any
 
-import imimic_gym  # noqa: F401  (registers the env, sets headless GL)
+import imimic_gym  # registers the env, sets headless GL; and its __version__
 from imimic_gym.cli.cache import add_cache
 from imimic_gym.cli.common import (
     CommandError,
     at_least,
     estimator_names,
+    output_folder,
     print_table,
     save_json,
 )
@@ -45,8 +46,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from imimic_gym.plots import plot_tracking
     from imimic_gym.rollout import run_episode
 
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_folder(args.out, "demo")
     print(f"imimic demo: scenario {args.scenario}, seed {args.seed}, control {args.control}")
     args.estimator = _demo_estimator(args.estimator, args.scenario)
     kwargs = {"n_frames": args.frames} if args.frames else {}
@@ -70,6 +70,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     trajectory = run_episode(env, controller, seed=args.seed, record=True)
     fps = float(env.metadata["render_fps"])
     env.close()
+    out.mkdir(parents=True, exist_ok=True)
     write_video(out / "demo.mp4", trajectory.frames, fps)
     title = (f"{args.scenario}: human (solid) vs robot (dashed), "
              f"{args.estimator} + {args.control}")
@@ -97,8 +98,8 @@ def cmd_clip(args: argparse.Namespace) -> int:
     if args.frames:
         overrides["n_frames"] = args.frames
     spec = get_scenario(args.scenario, **overrides)
+    out = output_folder(args.out, "clip")
     clip = load_clip(spec)
-    out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     stem = out / f"{args.scenario}-seed{args.seed}"
     write_video(stem.with_suffix(".mp4"), clip.frames, clip.fps)
@@ -193,6 +194,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Controlling by showing: a MuJoCo robot arm copies a human arm seen on "
                     "video (the i-Mimic paper as a Gymnasium toolkit).",
     )
+    parser.add_argument("--version", action="version",
+                        version=f"imimic_gym {imimic_gym.__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     names = scenario_names()
 
@@ -208,9 +211,10 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--estimator", default=None, choices=estimator_names(),
                       help="where the robot's targets come from: DON on the video (1 to 3 "
                            "links), the CNN + refiner (a person's arm, 1 or 2 links), the "
-                           "MOG2 or CamShift baseline (1 link), or the true angles (oracle: "
-                           "the control loop's upper bound, no vision); default: don for 1 "
-                           "or 2 links, oracle for the others")
+                           "MOG2 or CamShift baseline (1 link), the pose model (pose, "
+                           "pose-don: a real person's arm, so not the servo), or the true "
+                           "angles (oracle: the control loop's upper bound, no vision); "
+                           "default: don for 1 or 2 links, oracle for the others")
     demo.add_argument("--out", default="demo_out", help="output folder (default: %(default)s)")
     demo.set_defaults(func=cmd_demo)
 
@@ -226,7 +230,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_eval(sub, names)
 
-    scen = sub.add_parser("scenarios", help="list the named scenarios and their settings")
+    scen = sub.add_parser(
+        "scenarios", help="list the named scenarios and their settings",
+        description="List every named scenario (--scenario of demo, clip, eval and cache) "
+                    "with what it renders: demonstrator, links, motion, background, "
+                    "occluder, size and length. The paper's experiments are exp1 to exp4.")
     scen.set_defaults(func=cmd_scenarios)
 
     add_cache(sub, names)

@@ -6,13 +6,20 @@ import argparse
 import os
 import sys
 
-from imimic_gym.cli.common import CommandError, add_backend, add_clip_seeds, check_backend
+from imimic_gym.cli.common import (
+    CommandError,
+    add_backend,
+    add_clip_seeds,
+    check_backend,
+    output_folder,
+)
 
 
 def cmd_cache(args: argparse.Namespace) -> int:
     from imimic_gym.clips.cache import cache_limit_bytes, cache_usage, clear_cache
 
     if args.cache_dir:
+        output_folder(args.cache_dir, "cache", "--cache-dir")
         os.environ["IMIMIC_CACHE_DIR"] = args.cache_dir  # here and on the Ray workers
     try:
         limit = cache_limit_bytes()

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 from pathlib import Path
 
 
@@ -74,6 +75,26 @@ def estimator_names(video_only: bool = False) -> tuple[str, ...]:
 
     return tuple(name for name, entry in ESTIMATORS.items()
                  if not (video_only and entry.needs_truth))
+
+
+def output_folder(path: str | Path, command: str, flag: str = "--out") -> Path:
+    """``path`` as an output folder, checked before any work is done: it is a folder or
+    can be made as one (its nearest existing parent is a writable folder). Nothing is
+    created here. `CommandError` naming ``flag`` otherwise."""
+    folder = Path(path)
+    if folder.exists() and not folder.is_dir():
+        raise CommandError(f"imimic {command}: {flag} {folder} is a file; {flag} names the "
+                           f"folder the outputs go in")
+    parent = folder
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir():
+        raise CommandError(f"imimic {command}: {flag} {folder} cannot be made: {parent} is "
+                           f"a file")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise CommandError(f"imimic {command}: {flag} {folder} cannot be written: {parent} "
+                           f"is not writable")
+    return folder
 
 
 def save_json(path: str | None, data: object) -> None:

@@ -13,6 +13,7 @@ from imimic_gym.cli.common import (
     at_least,
     estimator_names,
     finite,
+    output_folder,
     positive,
     print_table,
     unit_interval,
@@ -49,6 +50,10 @@ def cmd_mimic(args: argparse.Namespace) -> int:
     if args.links not in entry.links:
         raise CommandError(f"imimic mimic: {args.estimator} follows {entry.links_text}; "
                          f"--links {args.links}")
+    if args.camera is not None and not (args.camera.isdigit() or "://" in args.camera):
+        raise CommandError(f"imimic mimic: --camera takes a camera index (0, 1, ...) or a "
+                           f"stream URL (rtsp://...), got {args.camera!r}")
+    output_folder(args.out, "mimic")
     try:
         return _mimic(args)
     except (VideoOpenError, VideoFormatError) as err:
@@ -124,6 +129,7 @@ def cmd_label(args: argparse.Namespace) -> int:
     from imimic_gym.clips.video import VideoFormatError, VideoOpenError
     from imimic_gym.labels import label_video
 
+    output_folder(args.out, "label")
     try:
         summary = label_video(args.video, args.out, arm=args.arm,
                               min_confidence=args.min_confidence, fps=args.fps)
