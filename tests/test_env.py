@@ -264,6 +264,9 @@ def test_a_clip_object_can_be_the_scenario() -> None:
     np.testing.assert_allclose(resized, clip.truth.keypoints * 0.5, rtol=1e-6)
     with pytest.raises(ValueError, match="n_links=3 but the clip has 2 links"):
         gym.make("ImitateVideo-v0", scenario=clip, n_links=3)
+    with pytest.raises(ValueError,
+                       match="give the clip once: clip=a Clip or scenario='chain-3', not both"):
+        gym.make("ImitateVideo-v0", scenario="chain-3", clip=clip)
 
 
 def test_a_clip_without_truth_runs_with_zero_tracking_reward() -> None:

@@ -163,6 +163,10 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         self._clips: dict[int, Clip] = {}
         self._fixed_clip: Clip | None = None
         self._spec: ClipSpec | None = None
+        if clip is not None and not (isinstance(scenario, str) and scenario == "default"):
+            given = repr(str(clip)) if isinstance(clip, (str, Path)) else "a Clip"
+            raise ValueError(f"give the clip once: clip={given} or scenario={scenario!r}, "
+                             f"not both")
         if annotations is not None and not isinstance(clip, (str, Path)):
             raise ValueError(f"annotations={annotations!r} belong to a video: give its path "
                              f"as clip=, got clip={clip!r}")
