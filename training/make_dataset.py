@@ -24,6 +24,7 @@ from pathlib import Path
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from imimic_gym.backends import BACKENDS, BackendError
+from imimic_gym.cli.common import at_least
 from imimic_gym.clips.annotations import write_annotations
 from imimic_gym.clips.dataset import DEFAULT_ANNOTATIONS, IMAGES_PER_CLIP, generate_arms
 
@@ -38,11 +39,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--links", type=int, choices=(1, 2), default=1,
                         help="moving links of the demonstrator (default: %(default)s)")
-    parser.add_argument("--train-clips", type=int, default=56,
-                        help=f"training clips, {IMAGES_PER_CLIP} images each "
-                             "(default: %(default)s)")
-    parser.add_argument("--test-clips", type=int, default=19,
-                        help="test clips; 0 writes no test file (default: %(default)s)")
+    parser.add_argument("--train-clips", type=at_least(0), default=56,
+                        help=f"training clips, {IMAGES_PER_CLIP} images each; 0 writes no "
+                             "training file (default: %(default)s)")
+    parser.add_argument("--test-clips", type=at_least(0), default=19,
+                        help=f"test clips, {IMAGES_PER_CLIP} images each; 0 writes no test "
+                             "file (default: %(default)s)")
     parser.add_argument("--name", default=None,
                         help="file stem (default: arm<links>, arm<links>_random with "
                              "--randomise); writes <name>_train.json and <name>_test.json")
@@ -60,11 +62,13 @@ def main() -> None:
                         help="--backend ray: a cluster (default: the Ray that `ray start` "
                              "runs here, else a new local one)")
     args = parser.parse_args()
+    if args.train_clips == args.test_clips == 0:
+        parser.error("--train-clips and --test-clips are both 0: nothing to write")
     name = args.name or f"arm{args.links}{'_random' * args.randomise}"
     offset = 10_000 * (args.links - 1)
     splits = [(split, clips, first) for split, clips, first in (
         ("train", args.train_clips, TRAIN_SEEDS), ("test", args.test_clips, TEST_SEEDS))
-        if clips != 0]
+        if clips]
     if Path(args.out).resolve() == DEFAULT_ANNOTATIONS.resolve():
         files = [f"{name}_{split}.json" for split, _, _ in splits]
         print(f"--out is the package's own dataset folder {DEFAULT_ANNOTATIONS}: writing "

@@ -52,3 +52,17 @@ def test_an_out_naming_the_package_folder_says_it_replaces_the_shipped_file(
     assert "arm1_test.json (new)" in said
     assert len(read_annotations(package / "arm1_train.json")) == 4
     assert len(read_annotations(package / "arm1_test.json")) == 4
+
+
+@pytest.mark.parametrize(("flags", "message"), [
+    (["--train-clips", "-1"], "argument --train-clips: expected a whole number of at least 0"),
+    (["--test-clips", "-5"], "argument --test-clips: expected a whole number of at least 0"),
+    (["--train-clips", "0", "--test-clips", "0"], "both 0: nothing to write"),
+])
+def test_a_count_that_writes_nothing_is_refused_before_work(tmp_path: Path, flags: list[str],
+                                                            message: str) -> None:
+    done = subprocess.run([sys.executable, str(SCRIPT), *flags], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert message in done.stderr.strip().splitlines()[-1]
+    assert not (tmp_path / "runs").exists()
