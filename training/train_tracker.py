@@ -46,6 +46,7 @@ from tqdm import tqdm
 
 import imimic_gym  # noqa: F401  (registers ImitateVideo-v0)
 from imimic_gym.checkpoints import file_sha256
+from imimic_gym.clips.scenarios import get_scenario, scenario_names
 from imimic_gym.controllers.learned import FEATURES_VERSION, ResidualTracking
 from imimic_gym.wrappers import DONObservation
 
@@ -117,7 +118,9 @@ class Args:
     `ray start` runs on this machine, else a new local one"""
 
 
-def parse_args() -> Args:
+def parse_args(argv: list[str] | None = None) -> Args:
+    """The options of ``argv`` (default: this command line), checked: exits 2 with one line
+    on a mistake, before any work."""
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     docs = _field_docs()
@@ -129,12 +132,15 @@ def parse_args() -> Args:
                                 help=docs[f.name])
         elif isinstance(default, tuple):
             kind = type(default[0]) if default else str
-            parser.add_argument(flag, nargs="+", type=kind, default=default, help=docs[f.name])
+            choices = {"choices": scenario_names(), "metavar": "SCENARIO"} if (
+                f.name == "scenarios") else {}
+            parser.add_argument(flag, nargs="+", type=kind, default=default, help=docs[f.name],
+                                **choices)
         elif f.name == "frames":
             parser.add_argument(flag, type=int, default=None, help=docs[f.name])
         else:
             parser.add_argument(flag, type=type(default), default=default, help=docs[f.name])
-    ns = parser.parse_args()
+    ns = parser.parse_args(argv)
     args = Args(**{k: tuple(v) if isinstance(v, list) else v for k, v in vars(ns).items()})
     if args.algorithm not in ("sac", "ppo"):
         parser.error(f"--algorithm must be sac or ppo, got {args.algorithm!r}")
@@ -142,6 +148,10 @@ def parse_args() -> Args:
         parser.error(f"--control must be position or velocity, got {args.control!r}")
     if args.backend not in ("local", "ray"):
         parser.error(f"--backend must be local or ray, got {args.backend!r}")
+    links = {name: get_scenario(name).n_links for name in args.scenarios}
+    if len(set(links.values())) > 1:
+        parser.error("--scenarios: one policy drives one arm, but " + ", ".join(
+            f"{name} has {n}" for name, n in links.items()) + " moving links")
     if any(s >= 1000 for s in args.val_seeds) or args.train_seeds > 900:
         parser.error("training and validation clip seeds must stay below 1000 (held out) and "
                      "the training seeds below the validation ones")
@@ -420,6 +430,8 @@ def search(args: Args) -> None:
     out = Path(args.out or run_dir / "tracker.pt")
     argvs = [trial_argv(args, overrides, run_dir / f"trial_{k}")
              for k, overrides in enumerate(grid)]
+    for argv in argvs:  # checked as each trial's run will check them, before the first
+        parse_args(argv)
     scores: dict[int, float] = {}
     if args.backend == "local":
         for k, argv in enumerate(tqdm(argvs, desc="trials", unit="trial")):

@@ -5,8 +5,10 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+import pytest
 
 import imimic_gym  # noqa: F401
+from imimic_gym.clips.scenarios import scenario_names
 from imimic_gym.controllers.learned import LearnedController
 from imimic_gym.rollout import run_episode
 from imimic_gym.wrappers import DONObservation
@@ -151,3 +153,21 @@ def test_a_search_over_a_list_option_gives_each_trial_one_value() -> None:
     at = argv.index("--val-seeds")
     assert argv[at + 1] == "901" and argv[at + 2].startswith("--")
     assert argv[argv.index("--seed") + 1] == "1"
+
+
+@pytest.mark.parametrize(("flags", "message"), [
+    (["--scenarios", "exp2-servo", "nope"], "argument --scenarios: invalid choice: 'nope'"),
+    (["--search", "scenarios=default,nope"], "argument --scenarios: invalid choice: 'nope'"),
+    (["--scenarios", "exp2-servo", "chain-2"], "exp2-servo has 1, chain-2 has 2 moving links"),
+])
+def test_an_unknown_or_mismatched_scenario_is_named_before_any_work(
+        tmp_path, flags: list[str], message: str) -> None:
+    result = subprocess.run([sys.executable, str(SCRIPT), *flags, "--logdir",
+                             str(tmp_path / "runs")], cwd=tmp_path, capture_output=True,
+                            text=True, timeout=60)
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    said = result.stderr.strip().splitlines()[-1]
+    assert message in said
+    if "invalid choice" in said:  # and the names it could have been
+        assert all(repr(name) in said for name in scenario_names())
+    assert not (tmp_path / "runs").exists()
