@@ -22,10 +22,12 @@ import itertools
 import json
 import os
 import random
+import shutil
 import sys
 import time
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
+from typing import Any
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
@@ -34,6 +36,7 @@ import torch
 from tqdm.auto import tqdm
 
 from imimic_gym.checkpoints import CheckpointError
+from imimic_gym.cli.common import at_least, positive
 from imimic_gym.clips.annotations import (
     ARM_KEYPOINTS,
     AnnotationError,
@@ -98,6 +101,12 @@ class Args:
     """also write the PCP report to this JSON file"""
 
 
+# Each number option's argparse type: a value that cannot work is refused before any work.
+TYPES = {"links": int, "seed": at_least(0), "cnn_epochs": at_least(0), "epochs": at_least(0),
+         "batch_size": at_least(1), "learning_rate": positive, "limit": at_least(0),
+         "threads": at_least(1)}
+
+
 def field_docs(cls: type) -> dict[str, str]:
     """The docstring under each field of a dataclass (CleanRL's style), for --help."""
     body = ast.parse(inspect.getsource(cls)).body[0].body
@@ -119,16 +128,19 @@ def parse_args() -> Args:
             parser.add_argument(flag, action=argparse.BooleanOptionalAction, default=f.default,
                                 help=help_text)
         else:
-            kind = {"int": int, "float": float}.get(f.type, str)
-            parser.add_argument(flag, type=kind, default=f.default, help=help_text)
+            parser.add_argument(flag, type=TYPES.get(f.name, str), default=f.default,
+                                help=help_text)
     args = Args(**vars(parser.parse_args()))
     if args.links not in (1, 2):
         parser.error(f"--links must be 1 or 2, got {args.links}")
+    if not args.eval_only and args.cnn_epochs == args.epochs == 0:
+        parser.error("--cnn-epochs and --epochs are both 0: nothing to train")
     return args
 
 
-def load_split(args: Args, run_dir: Path) -> tuple[list, list]:
-    """(train, test) arm annotations, per --annotations / --test-annotations."""
+def load_split(args: Args) -> tuple[list, list]:
+    """(train, test) arm annotations, per --annotations / --test-annotations; --annotations
+    without a test file gives a seeded quarter of its images to the test set."""
     shipped = DEFAULT_ANNOTATIONS / f"arm{args.links}"
     train_path = args.annotations or f"{shipped}_train.json"
     test_path = args.test_annotations or (None if args.annotations else f"{shipped}_test.json")
@@ -143,9 +155,7 @@ def load_split(args: Args, run_dir: Path) -> tuple[list, list]:
         order = np.random.default_rng(args.seed).permutation(len(train))
         cut = len(train) - max(1, len(train) // 4)
         train, test = [train[i] for i in order[:cut]], [train[i] for i in order[cut:]]
-        for name, arms in (("train", train), ("test", test)):
-            write_annotations(run_dir / f"split_{name}.json", arms)
-    return (train[: args.limit] if args.limit else train), test
+    return train, test
 
 
 def arrays(arms: list, images: list[np.ndarray], config: NetConfig) -> tuple:
@@ -208,38 +218,15 @@ def eval_only(args: Args) -> None:
         print(f"wrote {args.json}")
 
 
-def main() -> None:
-    started = time.time()
-    args = parse_args()
-    torch.set_num_threads(args.threads)
-    if args.eval_only:
-        eval_only(args)
-        return
-    run_name = f"{args.exp_name}_arm{args.links}__{args.seed}__{int(time.time())}"
-    run_dir = Path("runs") / run_name
-    run_dir.mkdir(parents=True, exist_ok=True)
-    out = Path(args.out) if args.out else run_dir / f"cnn_arm{args.links}.pt"
-
-    # Seeding: the same seed gives the same batches, shifts and weights.
-    random.seed(args.seed)
-    np.random.seed(args.seed)
-    torch.manual_seed(args.seed)
-    gen = torch.Generator().manual_seed(args.seed)
-
-    train_arms, test_arms = load_split(args, run_dir)
-    train_images = load_images(train_arms, args.images)
-    test_images = load_images(test_arms, args.images)
-    model = load_model(args.init) if args.init else CNNRefiner(NetConfig())
-    x, y = arrays(train_arms, train_images, model.config)
-    print(f"{run_name}: {len(x)} training, {len(test_arms)} test images, input "
-          f"{model.config.input_hw}, {sum(p.numel() for p in model.parameters())} weights")
-
-    log_file = (run_dir / "log.csv").open("w", newline="")
-    log = csv.writer(log_file)
-    log.writerow(["epoch", "global_step", "tag", "value"])
+def fit(model: CNNRefiner, x: torch.Tensor, y: torch.Tensor, test: tuple[list, list],
+        args: Args, gen: torch.Generator, log: Any,
+        progress: tqdm) -> tuple[dict | None, dict, float]:
+    """Train ``model`` in the paper's two stages on inputs ``x`` and targets ``y``, an epoch
+    a row of ``log`` (a csv writer) and a tick of ``progress``; returns the test reports of
+    the CNN stage and of CNN + refiner (``test``: its arms and images), and the seconds."""
+    test_arms, test_images = test
     stages = [("cnn", args.cnn_epochs, False, model.cnn.parameters()),
               ("combined", args.epochs, True, model.parameters())]
-    progress = tqdm(total=args.cnn_epochs + args.epochs, desc="training", unit="epoch")
     step, start = 0, time.time()
     cnn_report = None
     for stage, epochs, refine, params in stages:
@@ -265,7 +252,7 @@ def main() -> None:
                     sys.exit(f"train_cnn.py: the loss is {loss.item()} in epoch "
                              f"{progress.n + 1} ({stage} stage): an input is not finite "
                              f"(a keypoint or an image of {source}?) or the learning rate "
-                             f"{args.learning_rate} is too high; nothing written")
+                             f"{args.learning_rate} is too high; no checkpoint written")
                 optimizer.zero_grad()
                 loss.backward()
                 optimizer.step()
@@ -281,7 +268,52 @@ def main() -> None:
     report = evaluate(model, test_arms, test_images, args.links)["cnn_refiner"]
     seconds = time.time() - start
     log.writerow([progress.n, step, "charts/train_seconds", seconds])
-    log_file.close()
+    return cnn_report, report, seconds
+
+
+def main() -> None:
+    started = time.time()
+    args = parse_args()
+    torch.set_num_threads(args.threads)
+    if args.eval_only:
+        eval_only(args)
+        return
+    run_name = f"{args.exp_name}_arm{args.links}__{args.seed}__{int(time.time())}"
+    run_dir = Path("runs") / run_name
+    out = Path(args.out) if args.out else run_dir / f"cnn_arm{args.links}.pt"
+
+    # Seeding: the same seed gives the same batches, shifts and weights.
+    random.seed(args.seed)
+    np.random.seed(args.seed)
+    torch.manual_seed(args.seed)
+    gen = torch.Generator().manual_seed(args.seed)
+
+    # Every input is read before the run folder exists: a mistake in one leaves no folder.
+    split_train, test_arms = load_split(args)
+    train_arms = split_train[: args.limit] if args.limit else split_train
+    train_images = load_images(train_arms, args.images)
+    test_images = load_images(test_arms, args.images)
+    model = load_model(args.init) if args.init else CNNRefiner(NetConfig())
+    x, y = arrays(train_arms, train_images, model.config)
+    print(f"{run_name}: {len(x)} training, {len(test_arms)} test images, input "
+          f"{model.config.input_hw}, {sum(p.numel() for p in model.parameters())} weights")
+
+    run_dir.mkdir(parents=True)  # a new folder, as the cleanup below may delete it
+    if args.annotations and not args.test_annotations:  # the seeded split, kept
+        for name, arms in (("train", split_train), ("test", test_arms)):
+            write_annotations(run_dir / f"split_{name}.json", arms)
+    progress = tqdm(total=args.cnn_epochs + args.epochs, desc="training", unit="epoch")
+    try:
+        with (run_dir / "log.csv").open("w", newline="") as log_file:
+            log = csv.writer(log_file)
+            log.writerow(["epoch", "global_step", "tag", "value"])
+            cnn_report, report, seconds = fit(model, x, y, (test_arms, test_images), args,
+                                              gen, log, progress)
+    except BaseException:
+        progress.close()
+        if progress.n == 0:  # stopped before its first epoch: nothing there worth keeping
+            shutil.rmtree(run_dir)
+        raise
     print(format_pcp_tables(cnn_report, report, title=f"{run_name}: test set, "
                             f"{len(test_arms)} images (training took {seconds:.0f} s)"))
     metadata = {

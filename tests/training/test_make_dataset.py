@@ -11,6 +11,8 @@ import pytest
 from imimic_gym.clips.annotations import read_annotations, write_annotations
 from imimic_gym.clips.dataset import DEFAULT_ANNOTATIONS
 
+from . import refused
+
 SCRIPT = Path(__file__).resolve().parents[2] / "training" / "make_dataset.py"
 
 
@@ -61,8 +63,4 @@ def test_an_out_naming_the_package_folder_says_it_replaces_the_shipped_file(
 ])
 def test_a_count_that_writes_nothing_is_refused_before_work(tmp_path: Path, flags: list[str],
                                                             message: str) -> None:
-    done = subprocess.run([sys.executable, str(SCRIPT), *flags], cwd=tmp_path,
-                          capture_output=True, text=True, timeout=60)
-    assert done.returncode == 2 and "Traceback" not in done.stderr
-    assert message in done.stderr.strip().splitlines()[-1]
-    assert not (tmp_path / "runs").exists()
+    assert message in refused(SCRIPT, flags, tmp_path)
