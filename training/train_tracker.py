@@ -23,6 +23,7 @@ trials (``--address``: an existing cluster).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import itertools
 import json
 import os
@@ -35,6 +36,7 @@ import tempfile
 import time
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -46,6 +48,7 @@ from tqdm import tqdm
 
 import imimic_gym  # noqa: F401  (registers ImitateVideo-v0)
 from imimic_gym.checkpoints import file_sha256
+from imimic_gym.cli.common import at_least, finite, positive, unit_interval
 from imimic_gym.clips.scenarios import get_scenario, scenario_names
 from imimic_gym.controllers.learned import FEATURES_VERSION, ResidualTracking
 from imimic_gym.wrappers import DONObservation
@@ -118,6 +121,32 @@ class Args:
     `ray start` runs on this machine, else a new local one"""
 
 
+# What argparse checks of an option beyond its default's type: a value that cannot work is
+# refused in one line before any work.
+CHECKS: dict[str, dict[str, Any]] = {
+    "algorithm": {"choices": ("sac", "ppo")},
+    "scenarios": {"choices": scenario_names(), "metavar": "SCENARIO"},
+    "train_seeds": {"type": at_least(1)},
+    "val_seeds": {"type": at_least(0)},
+    "eval_every": {"type": at_least(1)},
+    "frames": {"type": at_least(2)},
+    "control": {"choices": ("position", "velocity")},
+    "residual_scale": {"type": positive},
+    "reward_balance": {"type": finite},
+    "history": {"type": at_least(0)},
+    "rate_history": {"type": at_least(0)},
+    "net_arch": {"type": at_least(1)},
+    "learning_rate": {"type": positive},
+    "gamma": {"type": unit_interval},
+    "batch_size": {"type": at_least(1)},
+    "gradient_steps": {"type": at_least(1)},
+    "learning_starts": {"type": at_least(0)},
+    "seed": {"type": at_least(0)},
+    "threads": {"type": at_least(1)},
+    "backend": {"choices": ("local", "ray")},
+}
+
+
 def parse_args(argv: list[str] | None = None) -> Args:
     """The options of ``argv`` (default: this command line), checked: exits 2 with one line
     on a mistake, before any work."""
@@ -132,27 +161,21 @@ def parse_args(argv: list[str] | None = None) -> Args:
                                 help=docs[f.name])
         elif isinstance(default, tuple):
             kind = type(default[0]) if default else str
-            choices = {"choices": scenario_names(), "metavar": "SCENARIO"} if (
-                f.name == "scenarios") else {}
-            parser.add_argument(flag, nargs="+", type=kind, default=default, help=docs[f.name],
-                                **choices)
-        elif f.name == "frames":
-            parser.add_argument(flag, type=int, default=None, help=docs[f.name])
+            parser.add_argument(flag, nargs="+", default=default, help=docs[f.name],
+                                **{"type": kind, **CHECKS.get(f.name, {})})
         else:
-            parser.add_argument(flag, type=type(default), default=default, help=docs[f.name])
+            parser.add_argument(flag, default=default, help=docs[f.name],
+                                **{"type": type(default), **CHECKS.get(f.name, {})})
     ns = parser.parse_args(argv)
     args = Args(**{k: tuple(v) if isinstance(v, list) else v for k, v in vars(ns).items()})
-    if args.algorithm not in ("sac", "ppo"):
-        parser.error(f"--algorithm must be sac or ppo, got {args.algorithm!r}")
-    if args.control not in ("position", "velocity"):
-        parser.error(f"--control must be position or velocity, got {args.control!r}")
-    if args.backend not in ("local", "ray"):
-        parser.error(f"--backend must be local or ray, got {args.backend!r}")
+    if args.total_timesteps < 1:
+        parser.error(f"--total-timesteps must be at least 1, got {args.total_timesteps}: an "
+                     "untrained policy is no policy; nothing written")
     links = {name: get_scenario(name).n_links for name in args.scenarios}
     if len(set(links.values())) > 1:
         parser.error("--scenarios: one policy drives one arm, but " + ", ".join(
             f"{name} has {n}" for name, n in links.items()) + " moving links")
-    if any(s >= 1000 for s in args.val_seeds) or args.train_seeds > 900:
+    if any(s >= 1000 for s in args.val_seeds) or args.train_seeds > min(args.val_seeds):
         parser.error("training and validation clip seeds must stay below 1000 (held out) and "
                      "the training seeds below the validation ones")
     return args
@@ -270,12 +293,23 @@ def main() -> None:
         search(args)
         return
     args.run_name = args.run_name or f"tracker__{args.algorithm}__{args.seed}__{int(time.time())}"
-    if args.total_timesteps < 1:
-        print(f"train_tracker.py: --total-timesteps must be at least 1, got "
-              f"{args.total_timesteps}: an untrained policy is no policy; nothing written",
-              file=sys.stderr)
-        sys.exit(2)
     args.out = args.out or os.path.join(args.logdir, args.run_name, "tracker.pt")
+    # The folders this run makes, deepest first: a failed run leaves none of them empty.
+    made = sorted({folder for path in (Path(args.logdir, args.run_name), Path(args.out).parent)
+                   for folder in (path, *path.parents) if not folder.exists()},
+                  key=lambda folder: len(folder.parts), reverse=True)
+    try:
+        train(args)
+    except BaseException:
+        for folder in made:
+            with contextlib.suppress(OSError):  # not empty: the logs of a run that trained
+                folder.rmdir()
+        raise
+
+
+def train(args: Args) -> None:
+    """One run of ``args`` (with its run name and --out set): the policy to --out, its
+    metadata beside it, TensorBoard logs to logdir/<run name> once training starts."""
     try:  # before training, not after it: an --out that cannot be written is said now
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)
         with tempfile.NamedTemporaryFile(dir=Path(args.out).parent):
@@ -283,9 +317,6 @@ def main() -> None:
     except OSError as error:
         print(f"train_tracker.py: cannot write --out {args.out}: {error}", file=sys.stderr)
         sys.exit(2)
-    writer = SummaryWriter(os.path.join(args.logdir, args.run_name))
-    writer.add_text("hyperparameters", "|param|value|\n|-|-|\n" + "\n".join(
-        f"|{k}|{v}|" for k, v in asdict(args).items()))
 
     # Seeding: identical arguments give an identical run.
     random.seed(args.seed)
@@ -314,6 +345,9 @@ def main() -> None:
         model = PPO("MlpPolicy", venv, learning_rate=args.learning_rate, gamma=args.gamma,
                     batch_size=args.batch_size, n_steps=512, policy_kwargs=policy_kwargs,
                     seed=args.seed, device="cpu", verbose=0)
+    writer = SummaryWriter(os.path.join(args.logdir, args.run_name))
+    writer.add_text("hyperparameters", "|param|value|\n|-|-|\n" + "\n".join(
+        f"|{k}|{v}|" for k, v in asdict(args).items()))
     model.set_logger(_sb3_logger(writer.log_dir))
     callback = Progress(args, writer)
     start = time.time()
