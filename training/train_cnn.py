@@ -60,7 +60,8 @@ from imimic_gym.estimators.cnn_report import format_pcp_tables, pcp_report
 @dataclass
 class Args:
     exp_name: str = "cnn"
-    """the name of this experiment; the run name is <exp_name>_arm<links>__<seed>__<time>"""
+    """the name of this experiment; the run name is
+    <exp_name>_arm<links>__<seed>__<unix time>"""
     links: int = 1
     """moving links, 1 (forearm) or 2 (shoulder and elbow): picks the shipped dataset and
     how keypoints become joint angles"""
@@ -88,17 +89,18 @@ class Args:
     """shift each image by up to 5 input pixels and scale its brightness by 0.8-1.2: 224
     images are few, and the shifts keep the net from memorising positions"""
     init: str | None = None
-    """start from this checkpoint instead of random weights (fine-tuning)"""
+    """start from this checkpoint (fine-tuning); default: random weights"""
     limit: int = 0
-    """train on only the first N training images (0: all); for quick trials"""
+    """train on only the first N training images, for quick trials (0: all)"""
     threads: int = 2
     """torch CPU threads"""
     out: str | None = None
     """checkpoint path; default: runs/<run name>/cnn_arm<links>.pt (metadata .json beside)"""
     eval_only: str | None = None
-    """evaluate this checkpoint on the test images, print the PCP tables, and stop"""
+    """evaluate this checkpoint on the test images, print the PCP tables, and stop;
+    default: train"""
     json: str | None = None
-    """also write the PCP report to this JSON file"""
+    """also write the PCP report to this JSON file; default: none"""
 
 
 # Each number option's argparse type: a value that cannot work is refused before any work.
@@ -123,7 +125,8 @@ def parse_args() -> Args:
     docs = field_docs(Args)
     for f in fields(Args):
         doc = docs[f.name].replace("%", "%%")
-        flag, help_text = "--" + f.name.replace("_", "-"), f"{doc} (default: %(default)s)"
+        flag = "--" + f.name.replace("_", "-")
+        help_text = doc if "default:" in doc else f"{doc} (default: %(default)s)"
         if f.type == "bool":
             parser.add_argument(flag, action=argparse.BooleanOptionalAction, default=f.default,
                                 help=help_text)

@@ -59,40 +59,45 @@ ROOT = Path(__file__).resolve().parents[1]
 @dataclass
 class Args:
     algorithm: str = "sac"
-    """the SB3 algorithm: sac (default) or ppo"""
+    """the SB3 algorithm: sac or ppo"""
     scenarios: tuple[str, ...] = ("exp2-servo", "exp3-forearm-none", "exp3-forearm-low",
                                   "exp3-forearm-high")
-    """training scenarios, one vectorised env each (one-link: DON follows one link)"""
+    """training scenarios, one vectorised env each, all with the same number of moving
+    links (the defaults have one: DON follows one link)"""
     train_seeds: int = 48
-    """clip seeds 0 .. train_seeds-1 of every scenario are the training clips"""
+    """training clips per scenario: clip seeds 0 .. train_seeds-1"""
     val_seeds: tuple[int, ...] = (900, 901)
-    """clip seeds for the periodic evaluation (below 1000, never trained on)"""
+    """clip seeds for the periodic evaluation (below 1000 and not trained on)"""
     total_timesteps: int = 160_000
     """env steps over all envs (one step = one video frame)"""
     eval_every: int = 20_000
     """env steps between periodic evaluations"""
     frames: int | None = None
-    """clip length in frames (None: the scenario's, 150); short clips for smoke runs"""
+    """clip length in frames, short for smoke runs; default: the scenario's (150 frames,
+    5 s)"""
     control: str = "velocity"
     """the robot's actuation, and so the scripted controller under the residual:
     position or velocity"""
     residual_scale: float = 1.0
-    """the policy's action, times this, is added to the scripted controller's action"""
+    """the policy's action, times this, is added to the scripted controller's (both
+    normalised to [-1, 1] of the actuator's range)"""
     reward_balance: float = 1.0
     """each scenario's reward is divided by the scripted controller's mean squared error
-    there to this power: 1 weighs scenarios by relative improvement, 0 by raw error"""
+    there (rad^2) to this power: 1 weighs scenarios by relative improvement, 0 by raw
+    error"""
     history: int = 6
     """extra frames of estimate history in the policy's features (TrackerFeatures)"""
     rate_history: int = 12
     """frames of past estimated omega and trust in the policy's features (TrackerFeatures)"""
     net_arch: tuple[int, ...] = (128, 128)
-    """hidden layers of the actor and the critics"""
+    """hidden layers of the actor and the critics, units each"""
     learning_rate: float = 1e-3
-    """Adam learning rate"""
+    """Adam learning rate (constant)"""
     gamma: float = 0.9
-    """discount: tracking is short-sighted, ten frames of horizon are enough to anticipate"""
+    """discount per env step (frame): tracking is short-sighted, ten frames of horizon are
+    enough to anticipate"""
     batch_size: int = 256
-    """SAC minibatch (PPO: minibatch size too)"""
+    """transitions per gradient update (SAC's and PPO's minibatch)"""
     gradient_steps: int = 2
     """SAC: gradient updates per vectorised env step (one step of every env)"""
     learning_starts: int = 2_000
@@ -101,19 +106,21 @@ class Args:
     """seeds torch, numpy, random and the envs (0, with reward balance 1: the shipped
     policy's; benchmarks/RESULTS.md lists the candidates it was chosen from)"""
     threads: int = 1
-    """torch threads (the machine is shared; 1 is as fast for these small nets)"""
+    """torch CPU threads (the machine is shared; 1 is as fast for these small nets)"""
     out: str = ""
     """where to write the policy weights (the metadata goes to the same name .json);
     default: logdir/<run name>/tracker.pt. The shipped one is
     imimic_gym/data/checkpoints/tracker.pt"""
     logdir: str = "runs"
-    """TensorBoard log folder; the run writes into logdir/<run name>"""
+    """TensorBoard log folder, in the working directory unless absolute; the run writes
+    into logdir/<run name>"""
     run_name: str = field(default="")
-    """default: tracker__<algorithm>__<seed>__<unix time>"""
+    """the run's name, its folder in logdir; default:
+    tracker__<algorithm>__<seed>__<unix time>"""
     search: tuple[str, ...] = ()
     """a grid of trials instead of one run: KEY=V1,V2 ... over the options above (e.g.
     seed=0,1 learning_rate=1e-3,3e-4); the one with the lowest mean validation RMSE
-    (learned, over the scenarios) goes to --out"""
+    (learned, over the scenarios) goes to --out; default: none, one run"""
     backend: str = "local"
     """--search: trials one after another here (local) or as Ray Tune trials (ray)"""
     address: str = ""
@@ -155,16 +162,18 @@ def parse_args(argv: list[str] | None = None) -> Args:
     docs = _field_docs()
     for f in fields(Args):
         default = getattr(Args, f.name, None) if f.name != "run_name" else ""
-        flag = "--" + f.name.replace("_", "-")
+        flag, doc = "--" + f.name.replace("_", "-"), docs[f.name]
+        shown = " ".join(map(str, default)) if isinstance(default, tuple) else default
+        help_text = doc if "default:" in doc else f"{doc} (default: {shown})"
         if isinstance(default, bool):
             parser.add_argument(flag, action=argparse.BooleanOptionalAction, default=default,
-                                help=docs[f.name])
+                                help=help_text)
         elif isinstance(default, tuple):
             kind = type(default[0]) if default else str
-            parser.add_argument(flag, nargs="+", default=default, help=docs[f.name],
+            parser.add_argument(flag, nargs="+", default=default, help=help_text,
                                 **{"type": kind, **CHECKS.get(f.name, {})})
         else:
-            parser.add_argument(flag, default=default, help=docs[f.name],
+            parser.add_argument(flag, default=default, help=help_text,
                                 **{"type": type(default), **CHECKS.get(f.name, {})})
     ns = parser.parse_args(argv)
     args = Args(**{k: tuple(v) if isinstance(v, list) else v for k, v in vars(ns).items()})

@@ -11,7 +11,7 @@ import pytest
 from imimic_gym.clips.annotations import read_annotations, write_annotations
 from imimic_gym.clips.dataset import DEFAULT_ANNOTATIONS
 
-from . import refused
+from . import option_helps, refused
 
 SCRIPT = Path(__file__).resolve().parents[2] / "training" / "make_dataset.py"
 
@@ -64,3 +64,10 @@ def test_an_out_naming_the_package_folder_says_it_replaces_the_shipped_file(
 def test_a_count_that_writes_nothing_is_refused_before_work(tmp_path: Path, flags: list[str],
                                                             message: str) -> None:
     assert message in refused(SCRIPT, flags, tmp_path)
+
+
+def test_help_gives_every_option_its_default() -> None:
+    helps = option_helps(SCRIPT)
+    assert [flag for flag, text in helps.items() if "default" not in text] == []
+    assert "(default: runs/data in the working directory)" in helps["--out"]
+    assert "4 images each" in helps["--train-clips"]

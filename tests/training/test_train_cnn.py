@@ -10,7 +10,7 @@ import pytest
 from imimic_gym.clips.annotations import read_annotations, write_annotations
 from imimic_gym.clips.dataset import DEFAULT_ANNOTATIONS
 
-from . import refused
+from . import option_helps, refused
 
 SCRIPT = Path(__file__).resolve().parents[2] / "training" / "train_cnn.py"
 
@@ -48,6 +48,13 @@ def test_help_explains_every_option(tmp_path: Path) -> None:
                  "--json", "--batch-size"):
         assert flag in out
     assert "paper: 14" in out
+
+
+def test_help_gives_every_option_its_default_once() -> None:
+    helps = option_helps(SCRIPT)
+    assert [flag for flag, text in helps.items() if text.count("default") != 1] == []
+    assert "(default: None)" not in " ".join(helps.values())
+    assert "(default: 14)" in helps["--batch-size"] and "images per" in helps["--batch-size"]
 
 
 def test_a_non_finite_loss_stops_training_and_writes_no_checkpoint(tmp_path: Path) -> None:

@@ -14,7 +14,7 @@ from imimic_gym.controllers.learned import LearnedController
 from imimic_gym.rollout import run_episode
 from imimic_gym.wrappers import DONObservation
 
-from . import refused
+from . import option_helps, refused
 
 SCRIPT = Path(__file__).resolve().parents[2] / "training" / "train_tracker.py"
 TINY = ["--scenarios", "exp2-servo", "--train-seeds", "1", "--val-seeds", "900", "--frames",
@@ -218,3 +218,14 @@ def test_a_stopped_run_leaves_no_empty_folder_but_keeps_its_logs(
         assert list(run.glob("events.out.tfevents.*"))
     else:
         assert not (tmp_path / "runs").exists()
+
+
+def test_help_gives_every_option_its_default_and_units() -> None:
+    helps = option_helps(SCRIPT)
+    assert [flag for flag, text in helps.items() if "default" not in text] == []
+    assert "env steps" in helps["--total-timesteps"] and "(default: 160000)" in helps[
+        "--total-timesteps"]
+    assert "(default: 900 901)" in helps["--val-seeds"]
+    assert "(default: 128 128)" in helps["--net-arch"] and "units" in helps["--net-arch"]
+    assert "150 frames, 5 s" in helps["--frames"]
+    assert "{sac,ppo}" in helps["--algorithm"] and "(default: sac)" in helps["--algorithm"]
