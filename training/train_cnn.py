@@ -22,10 +22,12 @@ import itertools
 import json
 import os
 import random
+import shutil
 import sys
 import time
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
+from typing import Any
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
@@ -34,6 +36,7 @@ import torch
 from tqdm.auto import tqdm
 
 from imimic_gym.checkpoints import CheckpointError
+from imimic_gym.cli.common import at_least, positive
 from imimic_gym.clips.annotations import (
     ARM_KEYPOINTS,
     AnnotationError,
@@ -57,7 +60,8 @@ from imimic_gym.estimators.cnn_report import format_pcp_tables, pcp_report
 @dataclass
 class Args:
     exp_name: str = "cnn"
-    """the name of this experiment; the run name is <exp_name>_arm<links>__<seed>__<time>"""
+    """the name of this experiment; the run name is
+    <exp_name>_arm<links>__<seed>__<unix time>"""
     links: int = 1
     """moving links, 1 (forearm) or 2 (shoulder and elbow): picks the shipped dataset and
     how keypoints become joint angles"""
@@ -85,17 +89,24 @@ class Args:
     """shift each image by up to 5 input pixels and scale its brightness by 0.8-1.2: 224
     images are few, and the shifts keep the net from memorising positions"""
     init: str | None = None
-    """start from this checkpoint instead of random weights (fine-tuning)"""
+    """start from this checkpoint (fine-tuning); default: random weights"""
     limit: int = 0
-    """train on only the first N training images (0: all); for quick trials"""
+    """train on only the first N training images, for quick trials (0: all)"""
     threads: int = 2
     """torch CPU threads"""
     out: str | None = None
     """checkpoint path; default: runs/<run name>/cnn_arm<links>.pt (metadata .json beside)"""
     eval_only: str | None = None
-    """evaluate this checkpoint on the test images, print the PCP tables, and stop"""
+    """evaluate this checkpoint on the test images, print the PCP tables, and stop;
+    default: train"""
     json: str | None = None
-    """also write the PCP report to this JSON file"""
+    """also write the PCP report to this JSON file; default: none"""
+
+
+# Each number option's argparse type: a value that cannot work is refused before any work.
+TYPES = {"links": int, "seed": at_least(0), "cnn_epochs": at_least(0), "epochs": at_least(0),
+         "batch_size": at_least(1), "learning_rate": positive, "limit": at_least(0),
+         "threads": at_least(1)}
 
 
 def field_docs(cls: type) -> dict[str, str]:
@@ -114,21 +125,25 @@ def parse_args() -> Args:
     docs = field_docs(Args)
     for f in fields(Args):
         doc = docs[f.name].replace("%", "%%")
-        flag, help_text = "--" + f.name.replace("_", "-"), f"{doc} (default: %(default)s)"
+        flag = "--" + f.name.replace("_", "-")
+        help_text = doc if "default:" in doc else f"{doc} (default: %(default)s)"
         if f.type == "bool":
             parser.add_argument(flag, action=argparse.BooleanOptionalAction, default=f.default,
                                 help=help_text)
         else:
-            kind = {"int": int, "float": float}.get(f.type, str)
-            parser.add_argument(flag, type=kind, default=f.default, help=help_text)
+            parser.add_argument(flag, type=TYPES.get(f.name, str), default=f.default,
+                                help=help_text)
     args = Args(**vars(parser.parse_args()))
     if args.links not in (1, 2):
         parser.error(f"--links must be 1 or 2, got {args.links}")
+    if not args.eval_only and args.cnn_epochs == args.epochs == 0:
+        parser.error("--cnn-epochs and --epochs are both 0: nothing to train")
     return args
 
 
-def load_split(args: Args, run_dir: Path) -> tuple[list, list]:
-    """(train, test) arm annotations, per --annotations / --test-annotations."""
+def load_split(args: Args) -> tuple[list, list]:
+    """(train, test) arm annotations, per --annotations / --test-annotations; --annotations
+    without a test file gives a seeded quarter of its images to the test set."""
     shipped = DEFAULT_ANNOTATIONS / f"arm{args.links}"
     train_path = args.annotations or f"{shipped}_train.json"
     test_path = args.test_annotations or (None if args.annotations else f"{shipped}_test.json")
@@ -143,9 +158,7 @@ def load_split(args: Args, run_dir: Path) -> tuple[list, list]:
         order = np.random.default_rng(args.seed).permutation(len(train))
         cut = len(train) - max(1, len(train) // 4)
         train, test = [train[i] for i in order[:cut]], [train[i] for i in order[cut:]]
-        for name, arms in (("train", train), ("test", test)):
-            write_annotations(run_dir / f"split_{name}.json", arms)
-    return (train[: args.limit] if args.limit else train), test
+    return train, test
 
 
 def arrays(arms: list, images: list[np.ndarray], config: NetConfig) -> tuple:
@@ -208,38 +221,15 @@ def eval_only(args: Args) -> None:
         print(f"wrote {args.json}")
 
 
-def main() -> None:
-    started = time.time()
-    args = parse_args()
-    torch.set_num_threads(args.threads)
-    if args.eval_only:
-        eval_only(args)
-        return
-    run_name = f"{args.exp_name}_arm{args.links}__{args.seed}__{int(time.time())}"
-    run_dir = Path("runs") / run_name
-    run_dir.mkdir(parents=True, exist_ok=True)
-    out = Path(args.out) if args.out else run_dir / f"cnn_arm{args.links}.pt"
-
-    # Seeding: the same seed gives the same batches, shifts and weights.
-    random.seed(args.seed)
-    np.random.seed(args.seed)
-    torch.manual_seed(args.seed)
-    gen = torch.Generator().manual_seed(args.seed)
-
-    train_arms, test_arms = load_split(args, run_dir)
-    train_images = load_images(train_arms, args.images)
-    test_images = load_images(test_arms, args.images)
-    model = load_model(args.init) if args.init else CNNRefiner(NetConfig())
-    x, y = arrays(train_arms, train_images, model.config)
-    print(f"{run_name}: {len(x)} training, {len(test_arms)} test images, input "
-          f"{model.config.input_hw}, {sum(p.numel() for p in model.parameters())} weights")
-
-    log_file = (run_dir / "log.csv").open("w", newline="")
-    log = csv.writer(log_file)
-    log.writerow(["epoch", "global_step", "tag", "value"])
+def fit(model: CNNRefiner, x: torch.Tensor, y: torch.Tensor, test: tuple[list, list],
+        args: Args, gen: torch.Generator, log: Any,
+        progress: tqdm) -> tuple[dict | None, dict, float]:
+    """Train ``model`` in the paper's two stages on inputs ``x`` and targets ``y``, an epoch
+    a row of ``log`` (a csv writer) and a tick of ``progress``; returns the test reports of
+    the CNN stage and of CNN + refiner (``test``: its arms and images), and the seconds."""
+    test_arms, test_images = test
     stages = [("cnn", args.cnn_epochs, False, model.cnn.parameters()),
               ("combined", args.epochs, True, model.parameters())]
-    progress = tqdm(total=args.cnn_epochs + args.epochs, desc="training", unit="epoch")
     step, start = 0, time.time()
     cnn_report = None
     for stage, epochs, refine, params in stages:
@@ -265,7 +255,7 @@ def main() -> None:
                     sys.exit(f"train_cnn.py: the loss is {loss.item()} in epoch "
                              f"{progress.n + 1} ({stage} stage): an input is not finite "
                              f"(a keypoint or an image of {source}?) or the learning rate "
-                             f"{args.learning_rate} is too high; nothing written")
+                             f"{args.learning_rate} is too high; no checkpoint written")
                 optimizer.zero_grad()
                 loss.backward()
                 optimizer.step()
@@ -281,7 +271,52 @@ def main() -> None:
     report = evaluate(model, test_arms, test_images, args.links)["cnn_refiner"]
     seconds = time.time() - start
     log.writerow([progress.n, step, "charts/train_seconds", seconds])
-    log_file.close()
+    return cnn_report, report, seconds
+
+
+def main() -> None:
+    started = time.time()
+    args = parse_args()
+    torch.set_num_threads(args.threads)
+    if args.eval_only:
+        eval_only(args)
+        return
+    run_name = f"{args.exp_name}_arm{args.links}__{args.seed}__{int(time.time())}"
+    run_dir = Path("runs") / run_name
+    out = Path(args.out) if args.out else run_dir / f"cnn_arm{args.links}.pt"
+
+    # Seeding: the same seed gives the same batches, shifts and weights.
+    random.seed(args.seed)
+    np.random.seed(args.seed)
+    torch.manual_seed(args.seed)
+    gen = torch.Generator().manual_seed(args.seed)
+
+    # Every input is read before the run folder exists: a mistake in one leaves no folder.
+    split_train, test_arms = load_split(args)
+    train_arms = split_train[: args.limit] if args.limit else split_train
+    train_images = load_images(train_arms, args.images)
+    test_images = load_images(test_arms, args.images)
+    model = load_model(args.init) if args.init else CNNRefiner(NetConfig())
+    x, y = arrays(train_arms, train_images, model.config)
+    print(f"{run_name}: {len(x)} training, {len(test_arms)} test images, input "
+          f"{model.config.input_hw}, {sum(p.numel() for p in model.parameters())} weights")
+
+    run_dir.mkdir(parents=True)  # a new folder, as the cleanup below may delete it
+    if args.annotations and not args.test_annotations:  # the seeded split, kept
+        for name, arms in (("train", split_train), ("test", test_arms)):
+            write_annotations(run_dir / f"split_{name}.json", arms)
+    progress = tqdm(total=args.cnn_epochs + args.epochs, desc="training", unit="epoch")
+    try:
+        with (run_dir / "log.csv").open("w", newline="") as log_file:
+            log = csv.writer(log_file)
+            log.writerow(["epoch", "global_step", "tag", "value"])
+            cnn_report, report, seconds = fit(model, x, y, (test_arms, test_images), args,
+                                              gen, log, progress)
+    except BaseException:
+        progress.close()
+        if progress.n == 0:  # stopped before its first epoch: nothing there worth keeping
+            shutil.rmtree(run_dir)
+        raise
     print(format_pcp_tables(cnn_report, report, title=f"{run_name}: test set, "
                             f"{len(test_arms)} images (training took {seconds:.0f} s)"))
     metadata = {

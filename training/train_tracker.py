@@ -23,6 +23,7 @@ trials (``--address``: an existing cluster).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import itertools
 import json
 import os
@@ -35,6 +36,7 @@ import tempfile
 import time
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -46,6 +48,8 @@ from tqdm import tqdm
 
 import imimic_gym  # noqa: F401  (registers ImitateVideo-v0)
 from imimic_gym.checkpoints import file_sha256
+from imimic_gym.cli.common import at_least, finite, positive, unit_interval
+from imimic_gym.clips.scenarios import get_scenario, scenario_names
 from imimic_gym.controllers.learned import FEATURES_VERSION, ResidualTracking
 from imimic_gym.wrappers import DONObservation
 
@@ -55,40 +59,45 @@ ROOT = Path(__file__).resolve().parents[1]
 @dataclass
 class Args:
     algorithm: str = "sac"
-    """the SB3 algorithm: sac (default) or ppo"""
+    """the SB3 algorithm: sac or ppo"""
     scenarios: tuple[str, ...] = ("exp2-servo", "exp3-forearm-none", "exp3-forearm-low",
                                   "exp3-forearm-high")
-    """training scenarios, one vectorised env each (one-link: DON follows one link)"""
+    """training scenarios, one vectorised env each, all with the same number of moving
+    links (the defaults have one: DON follows one link)"""
     train_seeds: int = 48
-    """clip seeds 0 .. train_seeds-1 of every scenario are the training clips"""
+    """training clips per scenario: clip seeds 0 .. train_seeds-1"""
     val_seeds: tuple[int, ...] = (900, 901)
-    """clip seeds for the periodic evaluation (below 1000, never trained on)"""
+    """clip seeds for the periodic evaluation (below 1000 and not trained on)"""
     total_timesteps: int = 160_000
     """env steps over all envs (one step = one video frame)"""
     eval_every: int = 20_000
     """env steps between periodic evaluations"""
     frames: int | None = None
-    """clip length in frames (None: the scenario's, 150); short clips for smoke runs"""
+    """clip length in frames, short for smoke runs; default: the scenario's (150 frames,
+    5 s)"""
     control: str = "velocity"
     """the robot's actuation, and so the scripted controller under the residual:
     position or velocity"""
     residual_scale: float = 1.0
-    """the policy's action, times this, is added to the scripted controller's action"""
+    """the policy's action, times this, is added to the scripted controller's (both
+    normalised to [-1, 1] of the actuator's range)"""
     reward_balance: float = 1.0
     """each scenario's reward is divided by the scripted controller's mean squared error
-    there to this power: 1 weighs scenarios by relative improvement, 0 by raw error"""
+    there (rad^2) to this power: 1 weighs scenarios by relative improvement, 0 by raw
+    error"""
     history: int = 6
     """extra frames of estimate history in the policy's features (TrackerFeatures)"""
     rate_history: int = 12
     """frames of past estimated omega and trust in the policy's features (TrackerFeatures)"""
     net_arch: tuple[int, ...] = (128, 128)
-    """hidden layers of the actor and the critics"""
+    """hidden layers of the actor and the critics, units each"""
     learning_rate: float = 1e-3
-    """Adam learning rate"""
+    """Adam learning rate (constant)"""
     gamma: float = 0.9
-    """discount: tracking is short-sighted, ten frames of horizon are enough to anticipate"""
+    """discount per env step (frame): tracking is short-sighted, ten frames of horizon are
+    enough to anticipate"""
     batch_size: int = 256
-    """SAC minibatch (PPO: minibatch size too)"""
+    """transitions per gradient update (SAC's and PPO's minibatch)"""
     gradient_steps: int = 2
     """SAC: gradient updates per vectorised env step (one step of every env)"""
     learning_starts: int = 2_000
@@ -97,19 +106,21 @@ class Args:
     """seeds torch, numpy, random and the envs (0, with reward balance 1: the shipped
     policy's; benchmarks/RESULTS.md lists the candidates it was chosen from)"""
     threads: int = 1
-    """torch threads (the machine is shared; 1 is as fast for these small nets)"""
+    """torch CPU threads (the machine is shared; 1 is as fast for these small nets)"""
     out: str = ""
     """where to write the policy weights (the metadata goes to the same name .json);
     default: logdir/<run name>/tracker.pt. The shipped one is
     imimic_gym/data/checkpoints/tracker.pt"""
     logdir: str = "runs"
-    """TensorBoard log folder; the run writes into logdir/<run name>"""
+    """TensorBoard log folder, in the working directory unless absolute; the run writes
+    into logdir/<run name>"""
     run_name: str = field(default="")
-    """default: tracker__<algorithm>__<seed>__<unix time>"""
+    """the run's name, its folder in logdir; default:
+    tracker__<algorithm>__<seed>__<unix time>"""
     search: tuple[str, ...] = ()
     """a grid of trials instead of one run: KEY=V1,V2 ... over the options above (e.g.
     seed=0,1 learning_rate=1e-3,3e-4); the one with the lowest mean validation RMSE
-    (learned, over the scenarios) goes to --out"""
+    (learned, over the scenarios) goes to --out; default: none, one run"""
     backend: str = "local"
     """--search: trials one after another here (local) or as Ray Tune trials (ray)"""
     address: str = ""
@@ -117,32 +128,63 @@ class Args:
     `ray start` runs on this machine, else a new local one"""
 
 
-def parse_args() -> Args:
+# What argparse checks of an option beyond its default's type: a value that cannot work is
+# refused in one line before any work.
+CHECKS: dict[str, dict[str, Any]] = {
+    "algorithm": {"choices": ("sac", "ppo")},
+    "scenarios": {"choices": scenario_names(), "metavar": "SCENARIO"},
+    "train_seeds": {"type": at_least(1)},
+    "val_seeds": {"type": at_least(0)},
+    "eval_every": {"type": at_least(1)},
+    "frames": {"type": at_least(2)},
+    "control": {"choices": ("position", "velocity")},
+    "residual_scale": {"type": positive},
+    "reward_balance": {"type": finite},
+    "history": {"type": at_least(0)},
+    "rate_history": {"type": at_least(0)},
+    "net_arch": {"type": at_least(1)},
+    "learning_rate": {"type": positive},
+    "gamma": {"type": unit_interval},
+    "batch_size": {"type": at_least(1)},
+    "gradient_steps": {"type": at_least(1)},
+    "learning_starts": {"type": at_least(0)},
+    "seed": {"type": at_least(0)},
+    "threads": {"type": at_least(1)},
+    "backend": {"choices": ("local", "ray")},
+}
+
+
+def parse_args(argv: list[str] | None = None) -> Args:
+    """The options of ``argv`` (default: this command line), checked: exits 2 with one line
+    on a mistake, before any work."""
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     docs = _field_docs()
     for f in fields(Args):
         default = getattr(Args, f.name, None) if f.name != "run_name" else ""
-        flag = "--" + f.name.replace("_", "-")
+        flag, doc = "--" + f.name.replace("_", "-"), docs[f.name]
+        shown = " ".join(map(str, default)) if isinstance(default, tuple) else default
+        help_text = doc if "default:" in doc else f"{doc} (default: {shown})"
         if isinstance(default, bool):
             parser.add_argument(flag, action=argparse.BooleanOptionalAction, default=default,
-                                help=docs[f.name])
+                                help=help_text)
         elif isinstance(default, tuple):
             kind = type(default[0]) if default else str
-            parser.add_argument(flag, nargs="+", type=kind, default=default, help=docs[f.name])
-        elif f.name == "frames":
-            parser.add_argument(flag, type=int, default=None, help=docs[f.name])
+            parser.add_argument(flag, nargs="+", default=default, help=help_text,
+                                **{"type": kind, **CHECKS.get(f.name, {})})
         else:
-            parser.add_argument(flag, type=type(default), default=default, help=docs[f.name])
-    ns = parser.parse_args()
+            parser.add_argument(flag, default=default, help=help_text,
+                                **{"type": type(default), **CHECKS.get(f.name, {})})
+    ns = parser.parse_args(argv)
     args = Args(**{k: tuple(v) if isinstance(v, list) else v for k, v in vars(ns).items()})
-    if args.algorithm not in ("sac", "ppo"):
-        parser.error(f"--algorithm must be sac or ppo, got {args.algorithm!r}")
-    if args.control not in ("position", "velocity"):
-        parser.error(f"--control must be position or velocity, got {args.control!r}")
-    if args.backend not in ("local", "ray"):
-        parser.error(f"--backend must be local or ray, got {args.backend!r}")
-    if any(s >= 1000 for s in args.val_seeds) or args.train_seeds > 900:
+    if args.total_timesteps < 1:
+        parser.error(f"--total-timesteps must be at least 1, got {args.total_timesteps}: an "
+                     "untrained policy is no policy; nothing written")
+    links = {name: get_scenario(name).n_links for name in args.scenarios}
+    if len(set(links.values())) > 1:
+        parser.error("--scenarios: one policy drives one arm, but " + ", ".join(
+            f"{name} has {n}" for name, n in links.items()) + " moving links")
+    if any(s >= 1000 for s in args.val_seeds) or args.train_seeds > min(args.val_seeds):
         parser.error("training and validation clip seeds must stay below 1000 (held out) and "
                      "the training seeds below the validation ones")
     return args
@@ -260,12 +302,23 @@ def main() -> None:
         search(args)
         return
     args.run_name = args.run_name or f"tracker__{args.algorithm}__{args.seed}__{int(time.time())}"
-    if args.total_timesteps < 1:
-        print(f"train_tracker.py: --total-timesteps must be at least 1, got "
-              f"{args.total_timesteps}: an untrained policy is no policy; nothing written",
-              file=sys.stderr)
-        sys.exit(2)
     args.out = args.out or os.path.join(args.logdir, args.run_name, "tracker.pt")
+    # The folders this run makes, deepest first: a failed run leaves none of them empty.
+    made = sorted({folder for path in (Path(args.logdir, args.run_name), Path(args.out).parent)
+                   for folder in (path, *path.parents) if not folder.exists()},
+                  key=lambda folder: len(folder.parts), reverse=True)
+    try:
+        train(args)
+    except BaseException:
+        for folder in made:
+            with contextlib.suppress(OSError):  # not empty: the logs of a run that trained
+                folder.rmdir()
+        raise
+
+
+def train(args: Args) -> None:
+    """One run of ``args`` (with its run name and --out set): the policy to --out, its
+    metadata beside it, TensorBoard logs to logdir/<run name> once training starts."""
     try:  # before training, not after it: an --out that cannot be written is said now
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)
         with tempfile.NamedTemporaryFile(dir=Path(args.out).parent):
@@ -273,9 +326,6 @@ def main() -> None:
     except OSError as error:
         print(f"train_tracker.py: cannot write --out {args.out}: {error}", file=sys.stderr)
         sys.exit(2)
-    writer = SummaryWriter(os.path.join(args.logdir, args.run_name))
-    writer.add_text("hyperparameters", "|param|value|\n|-|-|\n" + "\n".join(
-        f"|{k}|{v}|" for k, v in asdict(args).items()))
 
     # Seeding: identical arguments give an identical run.
     random.seed(args.seed)
@@ -304,6 +354,9 @@ def main() -> None:
         model = PPO("MlpPolicy", venv, learning_rate=args.learning_rate, gamma=args.gamma,
                     batch_size=args.batch_size, n_steps=512, policy_kwargs=policy_kwargs,
                     seed=args.seed, device="cpu", verbose=0)
+    writer = SummaryWriter(os.path.join(args.logdir, args.run_name))
+    writer.add_text("hyperparameters", "|param|value|\n|-|-|\n" + "\n".join(
+        f"|{k}|{v}|" for k, v in asdict(args).items()))
     model.set_logger(_sb3_logger(writer.log_dir))
     callback = Progress(args, writer)
     start = time.time()
@@ -420,6 +473,8 @@ def search(args: Args) -> None:
     out = Path(args.out or run_dir / "tracker.pt")
     argvs = [trial_argv(args, overrides, run_dir / f"trial_{k}")
              for k, overrides in enumerate(grid)]
+    for argv in argvs:  # checked as each trial's run will check them, before the first
+        parse_args(argv)
     scores: dict[int, float] = {}
     if args.backend == "local":
         for k, argv in enumerate(tqdm(argvs, desc="trials", unit="trial")):

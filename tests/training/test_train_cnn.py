@@ -5,8 +5,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from imimic_gym.clips.annotations import read_annotations, write_annotations
 from imimic_gym.clips.dataset import DEFAULT_ANNOTATIONS
+
+from . import option_helps, refused
 
 SCRIPT = Path(__file__).resolve().parents[2] / "training" / "train_cnn.py"
 
@@ -46,7 +50,14 @@ def test_help_explains_every_option(tmp_path: Path) -> None:
     assert "paper: 14" in out
 
 
-def test_a_non_finite_loss_stops_training_and_writes_nothing(tmp_path: Path) -> None:
+def test_help_gives_every_option_its_default_once() -> None:
+    helps = option_helps(SCRIPT)
+    assert [flag for flag, text in helps.items() if text.count("default") != 1] == []
+    assert "(default: None)" not in " ".join(helps.values())
+    assert "(default: 14)" in helps["--batch-size"] and "images per" in helps["--batch-size"]
+
+
+def test_a_non_finite_loss_stops_training_and_writes_no_checkpoint(tmp_path: Path) -> None:
     test = tmp_path / "tiny_test.json"
     write_annotations(test, read_annotations(DEFAULT_ANNOTATIONS / "arm1_test.json")[:4])
     done = subprocess.run([sys.executable, str(SCRIPT), "--limit", "14", "--cnn-epochs", "2",
@@ -54,8 +65,24 @@ def test_a_non_finite_loss_stops_training_and_writes_nothing(tmp_path: Path) -> 
                            "--test-annotations", str(test), "--out", "model/cnn.pt"],
                           cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert done.returncode != 0
-    assert "the loss is" in done.stderr and "nothing written" in done.stderr
+    assert "the loss is nan in epoch 2" in done.stderr
+    assert "no checkpoint written" in done.stderr
     assert not (tmp_path / "model" / "cnn.pt").exists()
+    # The first epoch's loss is kept: the log says how the run went before it failed.
+    logs = list((tmp_path / "runs").glob("cnn_arm1__1__*/log.csv"))
+    assert len(logs) == 1 and ",losses/cnn," in logs[0].read_text()
+
+
+def test_a_run_that_fails_in_its_first_epoch_leaves_no_run_folder(tmp_path: Path) -> None:
+    """One image a step at a learning rate of 1e30: the second step's loss is not finite."""
+    test = tmp_path / "tiny_test.json"
+    write_annotations(test, read_annotations(DEFAULT_ANNOTATIONS / "arm1_test.json")[:4])
+    done = subprocess.run([sys.executable, str(SCRIPT), "--limit", "4", "--batch-size", "1",
+                           "--learning-rate", "1e30", "--threads", "1", "--test-annotations",
+                           str(test)], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode != 0 and "the loss is nan in epoch 1" in done.stderr
+    assert (tmp_path / "runs").is_dir() and not list((tmp_path / "runs").iterdir())
 
 
 def test_annotations_without_a_complete_arm_are_named(tmp_path: Path) -> None:
@@ -79,3 +106,18 @@ def test_a_missing_annotations_file_is_one_line(tmp_path: Path) -> None:
                           text=True, timeout=120)
     assert done.returncode == 2 and "Traceback" not in done.stderr
     assert done.stderr.startswith("train_cnn.py:") and "nope.json" in done.stderr
+
+
+@pytest.mark.parametrize(("flags", "message"), [
+    (["--batch-size", "0"], "argument --batch-size: expected a whole number of at least 1"),
+    (["--learning-rate", "nan"], "argument --learning-rate: expected a finite number above"),
+    (["--epochs", "-1"], "argument --epochs: expected a whole number of at least 0"),
+    (["--cnn-epochs", "0", "--epochs", "0"], "both 0: nothing to train"),
+    (["--seed", "-1"], "argument --seed: expected a whole number of at least 0"),
+    (["--test-annotations", "nope.json"], "nope.json"),
+    (["--init", "nope.pt"], "checkpoint nope.pt not found"),
+    (["--images", "nowhere", "--limit", "2"], "nowhere/arm1/train/"),
+])
+def test_a_bad_input_is_one_line_before_a_run_folder_exists(tmp_path: Path, flags: list[str],
+                                                            message: str) -> None:
+    assert message in refused(SCRIPT, flags, tmp_path)

@@ -1,3 +1,4 @@
+import importlib.util
 import json
 import subprocess
 import sys
@@ -5,13 +6,30 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+import pytest
 
 import imimic_gym  # noqa: F401
+from imimic_gym.clips.scenarios import scenario_names
 from imimic_gym.controllers.learned import LearnedController
 from imimic_gym.rollout import run_episode
 from imimic_gym.wrappers import DONObservation
 
+from . import option_helps, refused
+
 SCRIPT = Path(__file__).resolve().parents[2] / "training" / "train_tracker.py"
+TINY = ["--scenarios", "exp2-servo", "--train-seeds", "1", "--val-seeds", "900", "--frames",
+        "20", "--total-timesteps", "40", "--learning-starts", "20", "--batch-size", "16",
+        "--eval-every", "20"]
+
+
+def script_module(monkeypatch: pytest.MonkeyPatch):
+    """The script as a module, registered under its name while the test runs (its dataclass
+    and its --help look themselves up there)."""
+    spec = importlib.util.spec_from_file_location("train_tracker", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, "train_tracker", module)
+    spec.loader.exec_module(module)
+    return module
 
 
 def test_a_tiny_training_run_writes_a_policy_that_loads_and_tracks(tmp_path) -> None:
@@ -131,18 +149,10 @@ def test_a_malformed_search_is_refused_before_training(tmp_path) -> None:
         assert not list(tmp_path.rglob("*.pt"))
 
 
-def test_a_search_over_a_list_option_gives_each_trial_one_value() -> None:
+def test_a_search_over_a_list_option_gives_each_trial_one_value(monkeypatch) -> None:
     """``--search val_seeds=900,901`` (a tuple option): two trials, one seed each, passed
     on to each trial's command line as a list flag."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("train_tracker", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["train_tracker"] = module  # its dataclass looks itself up there
-    try:
-        spec.loader.exec_module(module)
-    finally:
-        del sys.modules["train_tracker"]
+    module = script_module(monkeypatch)
     args = module.Args(search=("val_seeds=900,901", "seed=0,1"))
     grid = module.search_grid(args)
     assert grid == [{"val_seeds": (900,), "seed": 0}, {"val_seeds": (900,), "seed": 1},
@@ -151,3 +161,71 @@ def test_a_search_over_a_list_option_gives_each_trial_one_value() -> None:
     at = argv.index("--val-seeds")
     assert argv[at + 1] == "901" and argv[at + 2].startswith("--")
     assert argv[argv.index("--seed") + 1] == "1"
+
+
+@pytest.mark.parametrize(("flags", "message"), [
+    (["--scenarios", "exp2-servo", "nope"], "argument --scenarios: invalid choice: 'nope'"),
+    (["--search", "scenarios=default,nope"], "argument --scenarios: invalid choice: 'nope'"),
+    (["--scenarios", "exp2-servo", "chain-2"], "exp2-servo has 1, chain-2 has 2 moving links"),
+])
+def test_an_unknown_or_mismatched_scenario_is_named_before_any_work(
+        tmp_path, flags: list[str], message: str) -> None:
+    result = subprocess.run([sys.executable, str(SCRIPT), *flags, "--logdir",
+                             str(tmp_path / "runs")], cwd=tmp_path, capture_output=True,
+                            text=True, timeout=60)
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    said = result.stderr.strip().splitlines()[-1]
+    assert message in said
+    if "invalid choice" in said:  # and the names it could have been
+        assert all(repr(name) in said for name in scenario_names())
+    assert not (tmp_path / "runs").exists()
+
+
+@pytest.mark.parametrize(("flags", "message"), [
+    (["--frames", "1"], "argument --frames: expected a whole number of at least 2"),
+    (["--batch-size", "0"], "argument --batch-size: expected a whole number of at least 1"),
+    (["--gamma", "1.5"], "argument --gamma: expected a number from 0 to 1"),
+    (["--learning-rate", "0"], "argument --learning-rate: expected a finite number above 0"),
+    (["--net-arch", "128", "0"], "argument --net-arch: expected a whole number of at least 1"),
+    (["--train-seeds", "0"], "argument --train-seeds: expected a whole number of at least 1"),
+    (["--train-seeds", "48", "--val-seeds", "10"], "training seeds below the validation"),
+    (["--algorithm", "dqn"], "argument --algorithm: invalid choice: 'dqn'"),
+    (["--search", "gamma=0.9,2"], "argument --gamma: expected a number from 0 to 1"),
+])
+def test_a_bad_option_is_one_line_before_a_run_folder_exists(tmp_path, flags: list[str],
+                                                             message: str) -> None:
+    assert message in refused(SCRIPT, [*flags, "--logdir", "runs"], tmp_path)
+
+
+@pytest.mark.parametrize(("stopped_in", "kept"), [("reward_scales", False), ("evaluate", True)])
+def test_a_stopped_run_leaves_no_empty_folder_but_keeps_its_logs(
+        tmp_path, monkeypatch, stopped_in: str, kept: bool) -> None:
+    """Ctrl-C before training (while the scripted controller's errors are measured) and
+    during it (at the first periodic evaluation, 20 steps in)."""
+    module = script_module(monkeypatch)
+
+    def interrupt(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(module, stopped_in, interrupt)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "argv", ["train_tracker.py", *TINY, "--run-name", "stopped"])
+    with pytest.raises(KeyboardInterrupt):
+        module.main()
+    run = tmp_path / "runs" / "stopped"
+    assert not (run / "tracker.pt").exists()
+    if kept:
+        assert list(run.glob("events.out.tfevents.*"))
+    else:
+        assert not (tmp_path / "runs").exists()
+
+
+def test_help_gives_every_option_its_default_and_units() -> None:
+    helps = option_helps(SCRIPT)
+    assert [flag for flag, text in helps.items() if "default" not in text] == []
+    assert "env steps" in helps["--total-timesteps"] and "(default: 160000)" in helps[
+        "--total-timesteps"]
+    assert "(default: 900 901)" in helps["--val-seeds"]
+    assert "(default: 128 128)" in helps["--net-arch"] and "units" in helps["--net-arch"]
+    assert "150 frames, 5 s" in helps["--frames"]
+    assert "{sac,ppo}" in helps["--algorithm"] and "(default: sac)" in helps["--algorithm"]
