@@ -166,6 +166,38 @@ def test_an_output_folder_that_cannot_be_made_is_one_line(tmp_path, capsys) -> N
     assert "imimic demo:" in capsys.readouterr().err
 
 
+SHORT = ["--episodes", "1", "--frames", "20"]
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["eval", "--controller", "position", "--out", "{file}", "--json", "{tmp}/o.json", *SHORT],
+     "--out {file} is a file; expected a folder to write"),
+    (["eval", "--controller", "position", "--out", "{tmp}/out", "--json", "{folder}", *SHORT],
+     "--json {folder} is a folder; expected a file to write"),
+    (["eval", "--json", "{folder}", *SHORT],
+     "--json {folder} is a folder; expected a file to write"),
+    (["eval", "--json", "{file}/sub/o.json", *SHORT],
+     "--json {file}/sub/o.json: {file} is a file, not a folder"),
+    (["eval", "--results", "{folder}", *SHORT],
+     "--results {folder} is a folder; expected a file to write"),
+    (["bench", "don", "--json", "{folder}"],
+     "--json {folder} is a folder; expected a file to write"),
+])
+def test_an_output_that_cannot_be_written_is_refused_before_any_work(
+        argv, message, tmp_path, capsys, monkeypatch) -> None:
+    monkeypatch.setenv("IMIMIC_CACHE_DIR", str(tmp_path / "cache"))
+    names = {"file": tmp_path / "a_file", "folder": tmp_path / "a_folder", "tmp": tmp_path}
+    names["file"].write_text("")
+    names["folder"].mkdir()
+    with pytest.raises(SystemExit) as stop:
+        main([arg.format(**names) for arg in argv])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert message.format(**names) in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "cache").exists()  # refused before a clip was rendered
+    assert not (tmp_path / "o.json").exists()
+
+
 def test_a_bad_cache_bound_is_one_line(tmp_path, capsys, monkeypatch) -> None:
     monkeypatch.setenv("IMIMIC_CACHE_MAX_GB", "lots")
     monkeypatch.setenv("IMIMIC_CACHE_DIR", str(tmp_path / "cache"))  # nothing cached

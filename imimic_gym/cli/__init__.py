@@ -13,6 +13,7 @@ from imimic_gym.cli.cache import add_cache
 from imimic_gym.cli.common import (
     CommandError,
     at_least,
+    check_writable,
     estimator_names,
     print_table,
     save_json,
@@ -137,6 +138,7 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
 def cmd_bench(args: argparse.Namespace) -> int:
     from imimic_gym.bench import bench_env, bench_render, machine
 
+    check_writable("bench", "--json", args.json)
     result: dict[str, Any] = {"machine": machine()}
     if args.what == "don":
         return _bench_don(args, result)
@@ -155,6 +157,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
 def _bench_don(args: argparse.Namespace, result: dict[str, Any]) -> int:
     from imimic_gym.bench import bench_don, don_window_and_lighting
 
+    prefix = str(Path(args.json).with_suffix("")) if args.json else "bench_don"
+    for figure in ("window", "lighting"):
+        check_writable("bench", "the plot", f"{prefix}_{figure}.png")
     print("DON, baselines and raw OpenCV MOG2, CPU ms per frame on the same frames, "
           "1 thread...")
     result.update(bench_don())
@@ -166,7 +171,6 @@ def _bench_don(args: argparse.Namespace, result: dict[str, Any]) -> int:
               f"{row['mog2_raw_ms']:9.2f} {row['ratio_mog2']:9.2f} "
               f"{row['ratio_mog2_paper']:10.2f}")
     print("  (paper: DON with the paper's layers only, without the appearance layer)")
-    prefix = str(Path(args.json).with_suffix("")) if args.json else "bench_don"
     print("time against N and detected area against light (paper Fig. 3)...")
     result["figure3"] = don_window_and_lighting(prefix)
     print(f"  wrote {prefix}_window.png and {prefix}_lighting.png")

@@ -14,12 +14,14 @@ from imimic_gym.cli.common import (
     add_clip_seeds,
     at_least,
     check_backend,
+    check_writable,
     estimator_names,
     save_json,
 )
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
+    _check_outputs(args)
     sweep = args.backend == "ray" or args.results is not None
     if args.photos or args.images:
         if sweep:
@@ -76,6 +78,19 @@ def cmd_eval(args: argparse.Namespace) -> int:
             _print_estimator_result(result)
     save_json(args.json, results)
     return 0
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Refuse outputs that cannot be written before any clip runs, so that no result is
+    computed and then lost: --json, --results and, for the suite, --out with eval.md
+    and plots/ in it."""
+    check_writable("eval", "--json", args.json)
+    check_writable("eval", "--results", args.results)
+    if args.paper or args.controller:
+        out = Path(args.out)
+        check_writable("eval", "--out", args.out, folder=True)
+        check_writable("eval", "--out", str(out / "plots"), folder=True)
+        check_writable("eval", "--out", str(out / "eval.md"))
 
 
 def _seeds(args: argparse.Namespace) -> tuple[int, ...]:
