@@ -8,6 +8,7 @@ torques are not scored here).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -16,12 +17,17 @@ import numpy as np
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import ClipSpec, get_scenario
 from imimic_gym.clips.types import MODALITIES, Clip, depth_to_frame
-from imimic_gym.estimators.registry import ESTIMATORS, build_estimator, get_estimator
+from imimic_gym.estimators.registry import (
+    ESTIMATORS,
+    UnsupportedClipError,
+    build_estimator,
+    get_estimator,
+)
 from imimic_gym.estimators.types import EstimatorContext
 from imimic_gym.metrics import OCCLUDED, angle_rmse_deg, lag_frames
 
-__all__ = ["WARM_UP_S", "clip_context", "evaluate_clip", "evaluate_estimator", "evaluate_photos",
-           "summarise_estimator"]
+__all__ = ["WARM_UP_S", "cannot_score", "clip_context", "evaluate_clip", "evaluate_estimator",
+           "evaluate_photos", "summarise_estimator"]
 
 WARM_UP_S = 0.5  # frame-differencing estimators see nothing until the arm has moved
 PREDICTION_ON = 0.3  # the trust threshold used for "with the prediction layer"
@@ -31,12 +37,32 @@ PREDICTING = ("don", "don-paper")  # estimators with a prediction layer to score
 def clip_context(spec: ClipSpec, clip: Clip, modality: str = "rgb") -> EstimatorContext:
     """The context of a scenario's clip as `ImitateVideoEnv.estimator_context` gives it,
     less the robot model (no torques) and the truth (the oracle is not scored here)."""
+    return replace(_spec_context(spec, modality), fps=float(clip.fps),
+                   reference_direction=float(clip.meta.get("reference_direction",
+                                                           spec.reference_direction)))
+
+
+def _spec_context(spec: ClipSpec, modality: str) -> EstimatorContext:
+    """`clip_context` as the scenario's settings give it, before its clip is rendered."""
     return EstimatorContext(
-        fps=float(clip.fps), link_parents=tuple(spec.link_parents),
+        fps=float(spec.fps), link_parents=tuple(spec.link_parents),
         joint_ranges=tuple((float(lo), float(hi)) for lo, hi in spec.joint_ranges),
-        reference_direction=float(clip.meta.get("reference_direction",
-                                                spec.reference_direction)),
-        modality=modality, demonstrator=spec.demonstrator)
+        reference_direction=float(spec.reference_direction), modality=modality,
+        demonstrator=spec.demonstrator)
+
+
+def cannot_score(scenario: str, estimator: str, modality: str = "rgb",
+                 controlled: bool = False) -> str | None:
+    """Why ``estimator`` cannot be scored on clips of ``scenario``, known before any clip
+    is rendered, or None if it can: alone (`evaluate_clip`) or, ``controlled``, driving
+    a controller (the tracking suite, where the env gives the oracle the truth). Alone,
+    an estimator that is the truth itself has nothing to be scored against; otherwise
+    `EstimatorEntry.unsupported` says. Unknown names raise ValueError."""
+    entry = get_estimator(estimator)
+    if entry.needs_truth:
+        return None if controlled else (f"estimator {estimator!r} is the truth itself: "
+                                        "score it with a controller")
+    return entry.unsupported(_spec_context(get_scenario(scenario), modality))
 
 
 def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
@@ -64,13 +90,15 @@ def evaluate_clip(scenario: str, estimator: str, seed: int, modality: str = "rgb
     of the moving links hidden), the mean eta on those frames and on the others, and the
     RMSE on them with the prediction layer off and on (DON only, with or without its
     appearance layer).
+
+    Raises `UnsupportedClipError` (a ValueError) where `cannot_score` gives a reason.
     """
     if modality not in MODALITIES:
         raise ValueError(f"unknown modality {modality!r}; expected one of {MODALITIES}")
+    why = cannot_score(scenario, estimator, modality)
+    if why:
+        raise UnsupportedClipError(why)
     spec = get_scenario(scenario, **({"n_frames": frames} if frames else {}))
-    if get_estimator(estimator).needs_truth:
-        raise ValueError(f"estimator {estimator!r} is the truth itself: score it with a "
-                         "controller")
     clip = load_clip(spec.replace(seed=seed), progress=False)
     assert clip.truth is not None and clip.depth is not None  # a rendered clip has both
     images = clip.frames if modality == "rgb" else depth_to_frame(clip.depth)

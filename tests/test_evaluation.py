@@ -51,6 +51,37 @@ def test_eval_refuses_baselines_on_multi_link_scenarios() -> None:
         evaluate_estimator("chain-2", "camshift", episodes=1)
 
 
+@pytest.mark.parametrize(("scenario", "estimator", "controlled", "why"), [
+    ("exp2-servo", "don", False, None),
+    ("exp2-servo", "cnn", False, "estimator 'cnn' reads a human demonstrator's arm; this "
+                                "clip shows a 'servo' demonstrator"),
+    ("chain-3", "mog2", True, "estimator 'mog2' follows one moving link; this clip has 3"),
+    ("exp2-servo", "oracle", False, "estimator 'oracle' is the truth itself: score it with "
+                                   "a controller"),
+    ("chain-3", "oracle", True, None),
+])
+def test_cannot_score_says_why_before_a_clip_is_rendered(scenario, estimator, controlled,
+                                                         why) -> None:
+    from imimic_gym.evaluation import cannot_score
+
+    assert cannot_score(scenario, estimator, controlled=controlled) == why
+
+
+def test_eval_checks_every_estimator_and_scenario_before_running_any(
+        tmp_path, capsys, monkeypatch) -> None:
+    monkeypatch.setenv("IMIMIC_CACHE_DIR", str(tmp_path / "cache"))
+    with pytest.raises(SystemExit) as stop:
+        main(["eval", "--scenario", "exp2-servo", "--estimator", "don", "cnn", "--episodes",
+              "1", "--frames", "30", "--json", str(tmp_path / "part.json")])
+    assert stop.value.code == 2
+    printed = capsys.readouterr()
+    assert printed.err.strip() == ("imimic eval: 'exp2-servo': estimator 'cnn' reads a human "
+                                   "demonstrator's arm; this clip shows a 'servo' "
+                                   "demonstrator")
+    assert "rmse" not in printed.out  # not even DON's row ran
+    assert not (tmp_path / "cache").exists() and not (tmp_path / "part.json").exists()
+
+
 def test_eval_scores_don_per_joint_on_two_links() -> None:
     result = evaluate_estimator("chain-2", "don", episodes=1, first_seed=7)
     mean = result["mean"]

@@ -37,22 +37,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
                            "sweep (--backend ray or --results) runs one cell per clip instead")
     if args.paper or args.controller:
         return _cmd_eval_suite(args, sweep)
-    from imimic_gym.clips.scenarios import get_scenario
-    from imimic_gym.estimators.registry import get_estimator
-
-    truth = [name for name in args.estimator if get_estimator(name).needs_truth]
-    if truth:
-        raise CommandError(f"imimic eval: the {truth[0]} estimator is the truth itself; score "
-                         "it with a controller (--controller ...) or use an estimator that "
-                         "reads the video")
+    _refuse_unscorable(args)
     if sweep:
-        for scenario in args.scenario:
-            n_links = get_scenario(scenario).n_links
-            for estimator in args.estimator:
-                links = get_estimator(estimator).links
-                if n_links not in links:
-                    raise CommandError(f"imimic eval: {scenario!r} has {n_links} moving "
-                                       f"links; {estimator} follows {links}")
         from imimic_gym.sweep import Cell
 
         cells = [Cell(scenario, estimator, None, seed, args.frames, args.modality)
@@ -68,12 +54,9 @@ def cmd_eval(args: argparse.Namespace) -> int:
     results = []
     for scenario in args.scenario:
         for estimator in args.estimator:
-            try:
-                result = evaluate_estimator(scenario, estimator, episodes=args.episodes,
-                                            first_seed=args.first_seed,
-                                            modality=args.modality, frames=args.frames)
-            except ValueError as error:  # e.g. a several-link scenario for a 1-link one
-                raise CommandError(f"imimic eval: {scenario!r}: {error}") from error
+            result = evaluate_estimator(scenario, estimator, episodes=args.episodes,
+                                        first_seed=args.first_seed, modality=args.modality,
+                                        frames=args.frames)
             results.append(result)
             _print_estimator_result(result)
     save_json(args.json, results)
@@ -91,6 +74,18 @@ def _check_outputs(args: argparse.Namespace) -> None:
         check_writable("eval", "--out", args.out, folder=True)
         check_writable("eval", "--out", str(out / "plots"), folder=True)
         check_writable("eval", "--out", str(out / "eval.md"))
+
+
+def _refuse_unscorable(args: argparse.Namespace) -> None:
+    """Before any clip runs, refuse an estimator that cannot be scored on a scenario
+    asked for (`evaluation.cannot_score`), naming the pair and why."""
+    from imimic_gym.evaluation import cannot_score
+
+    for scenario in args.scenario:
+        for estimator in args.estimator:
+            why = cannot_score(scenario, estimator, args.modality)
+            if why:
+                raise CommandError(f"imimic eval: {scenario!r}: {why}")
 
 
 def _seeds(args: argparse.Namespace) -> tuple[int, ...]:
@@ -187,9 +182,10 @@ def _suite_table(results: list[dict]) -> str:
 
 def _suite_configs(args: argparse.Namespace) -> list:
     """The suite's runs: the paper's, or scenarios x controllers x estimators (less the
-    pairs that cannot run, said in one line; one run of the oracle controller)."""
+    combinations that cannot run, said in one line; one run of the oracle controller).
+    Nothing left to run is a user error."""
     from imimic_gym.clips.scenarios import get_scenario
-    from imimic_gym.estimators.registry import get_estimator
+    from imimic_gym.evaluation import cannot_score
     from imimic_gym.paper import paper_configs
     from imimic_gym.suite import RunConfig
 
@@ -201,7 +197,7 @@ def _suite_configs(args: argparse.Namespace) -> list:
         n_links = get_scenario(scenario).n_links
         for controller in args.controller:
             for estimator in args.estimator:
-                if (n_links not in get_estimator(estimator).links
+                if (cannot_score(scenario, estimator, controlled=True)
                         or (n_links != 1 and controller == "learned")):
                     skipped.append(f"{scenario}/{estimator}/{controller}")
                     continue
@@ -209,8 +205,12 @@ def _suite_configs(args: argparse.Namespace) -> list:
                 if controller == "oracle":
                     break  # the oracle controller ignores the estimate: one run is enough
     if skipped:
-        print("skipped (an estimator that does not follow this many links, or the "
-              "learned policy, which follows one): " + ", ".join(skipped))
+        why = ("estimators that cannot follow the scenario's clips, for their links or "
+               "demonstrator, and the learned policy beyond one link")
+        if not configs:
+            raise CommandError(f"imimic eval: nothing to run: {', '.join(skipped)} "
+                               f"cannot run ({why})")
+        print(f"skipped ({why}): " + ", ".join(skipped))
     return configs
 
 
