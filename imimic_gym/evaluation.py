@@ -89,7 +89,7 @@ def evaluate_clip(scenario: str, estimator: str, seed: int, modality: str = "rgb
     peak, after warm-up), mean trust eta, and where the clip has occluded frames (over 10%
     of the moving links hidden), the mean eta on those frames and on the others, and the
     RMSE on them with the prediction layer off and on (DON only, with or without its
-    appearance layer).
+    appearance layer). The figures after warm-up are None for a clip that ends within it.
 
     Raises `UnsupportedClipError` (a ValueError) where `cannot_score` gives a reason.
     """
@@ -110,14 +110,9 @@ def evaluate_clip(scenario: str, estimator: str, seed: int, modality: str = "rgb
     row: dict[str, Any] = {
         "seed": seed,
         "rmse_deg": angle_rmse_deg(angles, truth),
-        "rmse_deg_settled": angle_rmse_deg(angles[warm:], truth[warm:]),
-        "lag_frames": lag_frames(truth[warm:], angles[warm:]),
+        **_settled(angles[warm:], truth[warm:], spec.n_links),
         "mean_trust": float(np.mean([e.trust for e in estimates])),
     }
-    if spec.n_links > 1:
-        for joint in range(spec.n_links):
-            row[f"rmse_deg_settled_q{joint + 1}"] = angle_rmse_deg(angles[warm:, joint],
-                                                                  truth[warm:, joint])
     occluded = clip.truth.occlusion > OCCLUDED
     row["occluded_frames"] = int(occluded.sum())
     if occluded.any() and not occluded.all():
@@ -135,13 +130,30 @@ def evaluate_clip(scenario: str, estimator: str, seed: int, modality: str = "rgb
     return row
 
 
+def _settled(angles: np.ndarray, truth: np.ndarray, n_links: int) -> dict[str, Any]:
+    """The scores after warm-up, from the estimated and true angles (T, n_links) rad of
+    the frames after it: RMSE (deg; with several links also per joint) and lag (frames);
+    each None when the clip ends within the warm-up (T = 0)."""
+    joints = [f"rmse_deg_settled_q{joint + 1}" for joint in range(n_links)] if n_links > 1 else []
+    if len(truth) == 0:
+        return dict.fromkeys(["rmse_deg_settled", "lag_frames", *joints])
+    return {"rmse_deg_settled": angle_rmse_deg(angles, truth),
+            "lag_frames": lag_frames(truth, angles),
+            **{key: angle_rmse_deg(angles[:, joint], truth[:, joint])
+               for joint, key in enumerate(joints)}}
+
+
 def summarise_estimator(scenario: str, estimator: str, modality: str,
                         rows: list[dict[str, Any]]) -> dict[str, Any]:
     """`evaluate_estimator`'s result from its per-seed rows (in seed order): every
     metric's mean, over the clips that have it (occlusion figures exist only for clips
-    with occluded frames)."""
+    with occluded frames); None where no clip has it (the settled figures of clips that
+    end within the warm-up)."""
     keys = dict.fromkeys(key for row in rows for key in row if key != "seed")
-    summary = {key: float(np.mean([r[key] for r in rows if key in r])) for key in keys}
+    summary = {}
+    for key in keys:
+        values = [r[key] for r in rows if r.get(key) is not None]
+        summary[key] = float(np.mean(values)) if values else None
     return {"scenario": scenario, "estimator": estimator, "modality": modality,
             "episodes": len(rows), "first_seed": rows[0]["seed"] if rows else None,
             "warm_up_s": WARM_UP_S, "mean": summary, "rows": rows}

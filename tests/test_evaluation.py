@@ -23,6 +23,30 @@ def test_eval_writes_json_with_finite_metrics(tmp_path) -> None:
     assert don["rmse_deg_settled"] < 3.0  # the servo, after warm-up
 
 
+@pytest.mark.parametrize("frames", [2, 15, 16])
+def test_a_clip_within_the_warm_up_is_scored_without_settled_figures(frames, tmp_path,
+                                                                     capsys) -> None:
+    """The warm-up is 15 frames at 30 fps: a clip no longer has RMSE and trust over all
+    its frames, and no figures after warm-up (None, not NaN); one frame more has them."""
+    out = tmp_path / "short.json"
+    assert main(["eval", "--scenario", "exp2-servo", "chain-2", "--episodes", "1",
+                 "--frames", str(frames), "--json", str(out)]) == 0
+
+    def refuse(constant: str) -> None:
+        raise AssertionError(f"{constant} in the JSON")
+
+    results = json.loads(out.read_text(), parse_constant=refuse)
+    within = frames <= 15
+    for result in results:
+        for scores in (result["mean"], result["rows"][0]):
+            assert math.isfinite(scores["rmse_deg"]) and 0 <= scores["mean_trust"] <= 1
+            settled = [key for key in scores if key.startswith("rmse_deg_settled")]
+            assert len(settled) == (3 if result["scenario"] == "chain-2" else 1)
+            for key in [*settled, "lag_frames"]:
+                assert (scores[key] is None) if within else math.isfinite(scores[key])
+    assert ("end within the 0.5 s warm-up" in capsys.readouterr().out) == within
+
+
 def test_occluded_frames_are_scored_with_and_without_prediction() -> None:
     result = evaluate_estimator("exp3-forearm-high", "don", episodes=1)
     row = result["rows"][0]

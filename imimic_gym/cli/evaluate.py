@@ -98,9 +98,18 @@ def _print_estimator_result(result: dict) -> None:
     if "rmse_occluded_deg_prediction_on" in mean:
         occluded = (f"  occluded: {mean['rmse_occluded_deg_prediction_off']:.1f} "
                     f"(prediction off) / {mean['rmse_occluded_deg_prediction_on']:.1f} (on)")
+    within = ""
+    if mean["rmse_deg_settled"] is None:
+        within = f" (the clips end within the {result['warm_up_s']:g} s warm-up)"
     print(f"{result['scenario']:20s} {result['estimator']:9s} rmse {mean['rmse_deg']:6.2f} "
-          f"deg, settled {mean['rmse_deg_settled']:6.2f} deg, lag {mean['lag_frames']:5.1f} "
-          f"frames, eta {mean['mean_trust']:.2f}{occluded}", flush=True)
+          f"deg, settled {_shown(mean['rmse_deg_settled'], 2):>6s} deg, lag "
+          f"{_shown(mean['lag_frames'], 1):>5s} frames, eta {mean['mean_trust']:.2f}"
+          f"{occluded}{within}", flush=True)
+
+
+def _shown(value: float | None, digits: int) -> str:
+    """``value`` with ``digits`` decimals, or "-" for a figure that does not exist."""
+    return "-" if value is None else f"{value:.{digits}f}"
 
 
 def _run_sweep(cells: list, args: argparse.Namespace) -> tuple[list[dict], dict, dict]:
@@ -164,10 +173,6 @@ def _cmd_eval_photos(args: argparse.Namespace) -> int:
 
 def _suite_table(results: list[dict]) -> str:
     """Markdown table of the suite's means, one row per scenario x estimator x controller."""
-
-    def shown(value: float | None, digits: int) -> str:
-        return "-" if value is None else f"{value:.{digits}f}"
-
     lines = ["| scenario | estimator | controller | RMSE (deg) | max (deg) | lag (frames) | "
              "jerk (deg/s^3) | recovery (s) | mean eta | seeds |", "|" + "---|" * 10]
     for r in results:
@@ -175,8 +180,8 @@ def _suite_table(results: list[dict]) -> str:
         lines.append(
             f"| `{r['scenario']}` | {r['estimator']} | {r['controller']} | "
             f"{m['rmse_deg']:.2f} | {m['max_error_deg']:.1f} | {m['lag_frames']:.1f} | "
-            f"{shown(m['jerk_deg_s3'], 0)} | {shown(m['recovery_s'], 2)} | "
-            f"{shown(m['mean_trust'], 2)} | {r['episodes']} |")
+            f"{_shown(m['jerk_deg_s3'], 0)} | {_shown(m['recovery_s'], 2)} | "
+            f"{_shown(m['mean_trust'], 2)} | {r['episodes']} |")
     return "\n".join(lines)
 
 
