@@ -120,6 +120,29 @@ def test_bench_env_and_render_report_every_figure() -> None:
     assert all(fps > 0 for fps in render.values())
 
 
+def test_bench_help_gives_the_defaults_of_the_benchmarks(capsys) -> None:
+    import inspect
+
+    from imimic_gym.bench import bench_don, bench_env
+
+    with pytest.raises(SystemExit):
+        main(["bench", "--help"])
+    shown = " ".join(capsys.readouterr().out.split())
+    env, don = (inspect.signature(f).parameters for f in (bench_env, bench_don))
+    assert f"env only: steps per timed run (default: {env['steps'].default})" in shown
+    assert f"(env, default: {env['repeats'].default})" in shown
+    assert f"(don's table, default: {don['repeats'].default})" in shown
+
+
+@pytest.mark.slow
+def test_bench_don_takes_repeats(tmp_path) -> None:
+    out = tmp_path / "don.json"
+    assert main(["bench", "don", "--repeats", "1", "--json", str(out)]) == 0
+    result = json.loads(out.read_text())
+    assert result["repeats"] == 1 and len(result["rows"]) == 4
+    assert (tmp_path / "don_window.png").exists() and (tmp_path / "don_lighting.png").exists()
+
+
 def test_scenarios_lists_every_scenario(capsys) -> None:
     from imimic_gym.clips.scenarios import scenario_names
 
@@ -133,6 +156,8 @@ def test_scenarios_lists_every_scenario(capsys) -> None:
     (["demo", "--frames", "0"], "--frames: expected a whole number of at least 2, got 0"),
     (["eval", "--episodes", "0"], "--episodes: expected a whole number of at least 1, got 0"),
     (["bench", "env", "--steps", "0"], "--steps: expected a whole number of at least 1"),
+    (["bench", "don", "--steps", "500"],
+     "imimic bench don: --steps counts env steps per timed run; don times each estimator"),
     (["mimic", "--video", "x.mp4", "--fps", "0"], "--fps: expected a finite number above 0"),
     (["mimic", "--video", "x.mp4", "--servo-range", "120", "0"],
      "--servo-range takes LOW HIGH in degrees with LOW < HIGH, got 120 0"),
