@@ -156,6 +156,18 @@ def test_scenarios_lists_every_scenario(capsys) -> None:
     (["demo", "--frames", "0"], "--frames: expected a whole number of at least 2, got 0"),
     (["eval", "--episodes", "0"], "--episodes: expected a whole number of at least 1, got 0"),
     (["bench", "env", "--steps", "0"], "--steps: expected a whole number of at least 1"),
+    (["eval", "--paper", "--scenario", "exp2-servo"], "imimic eval: --paper runs the paper's "
+     "own scenarios, estimators and controllers; it does not take --scenario"),
+    (["eval", "--paper", "--controller", "position", "--estimator", "don"],
+     "it does not take --estimator, --controller"),
+    (["eval", "--photos", "arms.json", "--images", "photos", "--controller", "position",
+      "--scenario", "default", "--paper"], "imimic eval: --photos scores estimators on "
+     "single photos; it does not take --scenario, --controller, --paper"),
+    (["eval", "--photos", "arms.json", "--frames", "30"], "it does not take --frames"),
+    (["eval", "--controller", "oracle", "--modality", "depth"],
+     "--controller runs the tracking suite on the colour video; it does not take --modality"),
+    (["eval", "--estimator", "mog2", "--out", "here"], "estimators are scored alone (into "
+     "--json); it does not take --out"),
     (["bench", "don", "--steps", "500"],
      "imimic bench don: --steps counts env steps per timed run; don times each estimator"),
     (["mimic", "--video", "x.mp4", "--fps", "0"], "--fps: expected a finite number above 0"),

@@ -19,8 +19,17 @@ from imimic_gym.cli.common import (
     save_json,
 )
 
+# The defaults of the options one mode takes and another refuses: None in argparse, so
+# that an option the user gave is told from one left out.
+DEFAULTS = {"scenario": ["exp2-servo"], "estimator": ["don"], "modality": "rgb",
+            "out": "eval_out"}
+
 
 def cmd_eval(args: argparse.Namespace) -> int:
+    _refuse_ignored(args)
+    for name, value in DEFAULTS.items():
+        if getattr(args, name) is None:
+            setattr(args, name, value)
     _check_outputs(args)
     sweep = args.backend == "ray" or args.results is not None
     if args.photos or args.images:
@@ -61,6 +70,27 @@ def cmd_eval(args: argparse.Namespace) -> int:
             _print_estimator_result(result)
     save_json(args.json, results)
     return 0
+
+
+def _refuse_ignored(args: argparse.Namespace) -> None:
+    """Refuse, naming them, the options the user gave that the chosen mode would ignore
+    (options that are None or False were not given)."""
+    ignored: tuple[str, ...]
+    if args.photos or args.images:
+        mode = "--photos scores estimators on single photos"
+        ignored = ("scenario", "controller", "paper", "modality", "frames", "out")
+    elif args.paper:
+        mode = "--paper runs the paper's own scenarios, estimators and controllers"
+        ignored = ("scenario", "estimator", "controller", "modality")
+    elif args.controller:
+        mode = "--controller runs the tracking suite on the colour video"
+        ignored = ("modality",)
+    else:
+        mode = "without --controller or --paper, estimators are scored alone (into --json)"
+        ignored = ("out",)
+    given = [f"--{name}" for name in ignored if getattr(args, name) not in (None, False)]
+    if given:
+        raise CommandError(f"imimic eval: {mode}; it does not take {', '.join(given)}")
 
 
 def _check_outputs(args: argparse.Namespace) -> None:
@@ -279,19 +309,19 @@ def add_eval(sub: argparse._SubParsersAction, names: list[str]) -> None:
                     "occlusion, mean eta), saves it and Fig. 4-style plots in --out. --paper "
                     "runs the paper's experiments 1-4 against its statements.",
     )
-    evaluate.add_argument("--scenario", nargs="+", default=["exp2-servo"],
-                          choices=names,
-                          help="one or more scenarios (default: %(default)s; DON follows 1 to 3 "
-                               "links, the other estimators one)")
+    evaluate.add_argument("--scenario", nargs="+", default=None, choices=names,
+                          help=f"one or more scenarios (default: {DEFAULTS['scenario'][0]}; "
+                               "DON follows 1 to 3 links, the other estimators one); not with "
+                               "--paper or --photos")
     from imimic_gym.suite import CONTROLLERS
 
-    evaluate.add_argument("--estimator", nargs="+", default=["don"],
+    evaluate.add_argument("--estimator", nargs="+", default=None,
                           choices=estimator_names(),
-                          help="default: %(default)s; oracle (the true angles) only with "
-                               "--controller")
-    evaluate.add_argument("--modality", default="rgb", choices=("rgb", "depth"),
-                          help="the colour video, or the depth video as grey frames "
-                               "(default: %(default)s)")
+                          help=f"default: {DEFAULTS['estimator'][0]}; oracle (the true angles) "
+                               "only with --controller; not with --paper")
+    evaluate.add_argument("--modality", default=None, choices=("rgb", "depth"),
+                          help="estimators alone: the colour video, or the depth video as grey "
+                               f"frames (default: {DEFAULTS['modality']})")
     evaluate.add_argument("--json", default=None, help="also write the results to this file")
     evaluate.add_argument("--photos", default=None, metavar="ANNOTATIONS",
                           help="score on annotated photos instead: a COCO-keypoints file "
@@ -313,9 +343,9 @@ def add_eval(sub: argparse._SubParsersAction, names: list[str]) -> None:
                           help="clips stepped at once through gym.make_vec, one process each "
                                "(default: %(default)s)")
     add_clip_seeds(evaluate)
-    evaluate.add_argument("--out", default="eval_out",
-                          help="suite only: folder for eval.md and plots/ (default: "
-                               "%(default)s)")
+    evaluate.add_argument("--out", default=None,
+                          help="suite only (--controller or --paper): folder for eval.md and "
+                               f"plots/ (default: {DEFAULTS['out']})")
     add_backend(evaluate, "(scenario, estimator, controller, seed) cell; the same numbers "
                           "either way")
     evaluate.add_argument("--results", default=None, metavar="FILE.jsonl",
