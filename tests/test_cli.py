@@ -1,6 +1,9 @@
 import json
+import os
+import signal
 import subprocess
 import sys
+import time
 
 import cv2
 import pytest
@@ -233,6 +236,40 @@ def test_an_output_that_cannot_be_written_is_refused_before_any_work(
     assert message.format(**names) in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "cache").exists()  # refused before a clip was rendered
     assert not (tmp_path / "o.json").exists()
+
+
+@pytest.mark.parametrize("suite", [False, True])
+def test_ctrl_c_during_eval_keeps_the_results_that_had_finished(suite, tmp_path) -> None:
+    """Ctrl-C once a first result is in (a printed row; for the suite, two plots): exit
+    130, one line on stderr, and the finished results printed and in --json (eval.md)."""
+    scenarios = ["exp2-servo", "default", "exp3-forearm-low", "chain-2", "chain-3"]
+    command = [sys.executable, "-m", "imimic_gym.cli", "eval", "--scenario", *scenarios,
+               "--estimator", "don", "--episodes", "2", "--frames", "40", "--json",
+               str(tmp_path / "kept.json")]
+    if suite:
+        command += ["--controller", "position", "--out", str(tmp_path / "out")]
+    run = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           env={**os.environ, "MUJOCO_GL": "egl",
+                                "IMIMIC_CACHE_DIR": str(tmp_path / "cache")})
+    if suite:
+        while len(list((tmp_path / "out" / "plots").glob("*.png"))) < 2 and run.poll() is None:
+            time.sleep(0.05)
+    else:
+        run.stdout.readline()
+    assert run.poll() is None, "eval ended before it could be stopped"
+    run.send_signal(signal.SIGINT)
+    out, err = run.communicate(timeout=300)
+    assert run.returncode == 130
+    kept = json.loads((tmp_path / "kept.json").read_text())
+    assert err.strip().splitlines()[-1] == (f"imimic eval: stopped by Ctrl-C; kept the "
+                                            f"{len(kept)} results that had finished")
+    assert 1 <= len(kept) < len(scenarios)
+    assert [r["scenario"] for r in kept] == scenarios[:len(kept)]
+    assert kept[0]["episodes"] == 2
+    if suite:
+        assert (tmp_path / "out" / "eval.md").read_text().count("| don | position |") == len(kept)
+    else:
+        assert out.count(" rmse ") == len(kept) - 1  # the first row was read above
 
 
 def test_a_bad_cache_bound_is_one_line(tmp_path, capsys, monkeypatch) -> None:

@@ -4,6 +4,8 @@ held-out clips, or estimators on annotated photos; here or as a sweep on Ray."""
 from __future__ import annotations
 
 import argparse
+import sys
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -58,18 +60,51 @@ def cmd_eval(args: argparse.Namespace) -> int:
             _print_estimator_result(result)
         save_json(args.json, results)
         return _report_failures(failed, args)
-    from imimic_gym.evaluation import evaluate_estimator
-
-    results = []
-    for scenario in args.scenario:
-        for estimator in args.estimator:
-            result = evaluate_estimator(scenario, estimator, episodes=args.episodes,
-                                        first_seed=args.first_seed, modality=args.modality,
-                                        frames=args.frames)
-            results.append(result)
-            _print_estimator_result(result)
+    results, stopped = _score_alone(args)
     save_json(args.json, results)
-    return 0
+    return _stopped_by_ctrl_c(len(results)) if stopped else 0
+
+
+def _score_alone(args: argparse.Namespace) -> tuple[list[dict], bool]:
+    """Each estimator on each scenario's clips here (`evaluation.evaluate_clip`), each
+    result printed as it finishes: the results, and whether Ctrl-C stopped them (the last
+    result is then over the clips that had finished, if any had)."""
+    from imimic_gym.evaluation import evaluate_clip, summarise_estimator
+
+    rows: dict[tuple[str, str], list[dict]] = {}  # one try around all: no gap for Ctrl-C
+
+    def result(pair: tuple[str, str]) -> dict:
+        return summarise_estimator(*pair, args.modality, rows[pair])
+
+    try:
+        for pair in ((s, e) for s in args.scenario for e in args.estimator):
+            for seed in _seeds(args):
+                row = evaluate_clip(*pair, seed, args.modality, args.frames)
+                rows.setdefault(pair, []).append(row)
+            _print_estimator_result(result(pair))
+    except KeyboardInterrupt:
+        unfinished = [pair for pair in rows if len(rows[pair]) < args.episodes]
+        for pair in unfinished:
+            _print_estimator_result(result(pair))
+        return [result(pair) for pair in rows], True
+    return [result(pair) for pair in rows], False
+
+
+def _until_ctrl_c(items: Iterable, into: list) -> bool:
+    """Append ``items`` to ``into`` as they come; True if Ctrl-C stopped them first."""
+    try:
+        for item in items:
+            into.append(item)
+    except KeyboardInterrupt:
+        return True
+    return False
+
+
+def _stopped_by_ctrl_c(finished: int) -> int:
+    """Exit code 130, saying what was kept (printed, and written where asked)."""
+    print(f"imimic eval: stopped by Ctrl-C; kept the {finished} results that had finished",
+          file=sys.stderr)
+    return 130
 
 
 def _refuse_ignored(args: argparse.Namespace) -> None:
@@ -254,7 +289,7 @@ def _cmd_eval_suite(args: argparse.Namespace, sweep: bool) -> int:
     from imimic_gym.paper import paper_table
     from imimic_gym.plots import plot_tracking
     from imimic_gym.rollout import Trajectory
-    from imimic_gym.suite import run_suite
+    from imimic_gym.suite import iter_suite
 
     configs = _suite_configs(args)
     out = Path(args.out)
@@ -267,6 +302,7 @@ def _cmd_eval_suite(args: argparse.Namespace, sweep: bool) -> int:
                             f"+ {config.controller}")
 
     failed: dict = {}
+    stopped = False
     if sweep:
         from imimic_gym.sweep import Cell
 
@@ -285,7 +321,9 @@ def _cmd_eval_suite(args: argparse.Namespace, sweep: bool) -> int:
                     occlusion=np.asarray(series["occlusion"]),
                     trust=None if trust is None else np.asarray(trust)))
     else:
-        results = run_suite(configs, num_envs=args.num_envs, on_trajectory=plot)
+        results = []
+        stopped = _until_ctrl_c(iter_suite(configs, num_envs=args.num_envs,
+                                           on_trajectory=plot), results)
     table = _suite_table(results)
     if args.paper:
         table = paper_table(results) + "\n\n" + table
@@ -293,7 +331,7 @@ def _cmd_eval_suite(args: argparse.Namespace, sweep: bool) -> int:
     (out / "eval.md").write_text(table + "\n")
     print(f"wrote {out / 'eval.md'} and {len(results)} plots in {out / 'plots'}")
     save_json(args.json, results)
-    return _report_failures(failed, args)
+    return _stopped_by_ctrl_c(len(results)) if stopped else _report_failures(failed, args)
 
 
 def add_eval(sub: argparse._SubParsersAction, names: list[str]) -> None:
