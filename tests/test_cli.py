@@ -4,6 +4,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import cv2
 import pytest
@@ -144,6 +145,30 @@ def test_bench_don_takes_repeats(tmp_path) -> None:
     result = json.loads(out.read_text())
     assert result["repeats"] == 1 and len(result["rows"]) == 4
     assert (tmp_path / "don_window.png").exists() and (tmp_path / "don_lighting.png").exists()
+
+
+RUNNER = Path(__file__).resolve().parents[1] / "benchmarks" / "run.py"
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["accuracy", "--quick", "--parts", "nonsense", "depth"],
+     "suite accuracy has no part nonsense; its parts: estimators, depth"),
+    (["tracking", "--quick", "--parts", "all"], "suite tracking has no part all; it runs whole"),
+    (["all", "--quick", "--parts", "env"], "--parts names parts of one suite, not of all"),
+])
+def test_the_benchmark_runner_refuses_parts_a_suite_does_not_have(argv, message) -> None:
+    done = subprocess.run([sys.executable, str(RUNNER), *argv], capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 2
+    assert done.stderr.strip().splitlines()[-1] == f"run.py: error: {message}"
+    assert "wrote" not in done.stdout
+
+
+def test_the_benchmark_runners_help_lists_each_suites_parts() -> None:
+    shown = " ".join(subprocess.run([sys.executable, str(RUNNER), "--help"],
+                                    capture_output=True, text=True, check=True).stdout.split())
+    assert "accuracy: estimators, depth;" in shown and "tracking: none (runs whole);" in shown
+    assert "speed: env, step, render, don, fig3, links, compile;" in shown
 
 
 def test_scenarios_lists_every_scenario(capsys) -> None:
