@@ -284,17 +284,36 @@ def test_ctrl_c_during_eval_keeps_the_results_that_had_finished(suite, tmp_path)
     assert run.poll() is None, "eval ended before it could be stopped"
     run.send_signal(signal.SIGINT)
     out, err = run.communicate(timeout=300)
-    assert run.returncode == 130
+    said = f"stdout:\n{out}\nstderr:\n{err[-2000:]}"  # for a failure to explain itself
+    assert run.returncode == 130, said
     kept = json.loads((tmp_path / "kept.json").read_text())
     assert err.strip().splitlines()[-1] == (f"imimic eval: stopped by Ctrl-C; kept the "
-                                            f"{len(kept)} results that had finished")
-    assert 1 <= len(kept) < len(scenarios)
-    assert [r["scenario"] for r in kept] == scenarios[:len(kept)]
-    assert kept[0]["episodes"] == 2
+                                            f"{len(kept)} results that had finished"), said
+    assert 1 <= len(kept) < len(scenarios), said
+    assert [r["scenario"] for r in kept] == scenarios[:len(kept)], said
+    assert kept[0]["episodes"] == 2, said
     if suite:
         assert (tmp_path / "out" / "eval.md").read_text().count("| don | position |") == len(kept)
     else:
-        assert out.count(" rmse ") == len(kept) - 1  # the first row was read above
+        assert out.count(" rmse ") == len(kept) - 1, said  # the first row was read above
+
+
+def test_ctrl_c_inside_a_compiled_call_counts_as_ctrl_c() -> None:
+    """Ctrl-C during DON's numba loops reaches Python as SystemError("... returned a result
+    with an exception set"), once per compiled call it interrupts, over the
+    KeyboardInterrupt; any other SystemError is a bug."""
+    from imimic_gym.cli.evaluate import _ctrl_c
+
+    def raised(cause: BaseException, layers: int) -> BaseException:
+        error = cause
+        for _ in range(layers):
+            wrapper = SystemError("CPUDispatcher(...) returned a result with an exception set")
+            wrapper.__cause__ = error
+            error = wrapper
+        return error
+
+    assert _ctrl_c(raised(KeyboardInterrupt(), 0)) and _ctrl_c(raised(KeyboardInterrupt(), 2))
+    assert not _ctrl_c(raised(ValueError(), 1)) and not _ctrl_c(SystemError("a bug"))
 
 
 def test_a_bad_cache_bound_is_one_line(tmp_path, capsys, monkeypatch) -> None:
