@@ -49,6 +49,25 @@ def load(name: str):
         sys.path.pop(0)
 
 
+def parts(name: str) -> tuple[str, ...]:
+    """The parts of suite ``name`` that --parts may name (its module's ``PARTS``; a suite
+    without them runs whole)."""
+    return tuple(getattr(load(name), "PARTS", ()))
+
+
+def check_parts(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Refuse, before any suite runs, --parts that are not parts of the one suite named."""
+    if not args.parts:
+        return
+    if args.suite == "all":
+        parser.error("--parts names parts of one suite, not of all")
+    known = parts(args.suite)
+    unknown = [part for part in args.parts if part not in known]
+    if unknown:
+        parser.error(f"suite {args.suite} has no part {', '.join(unknown)}; "
+                     + (f"its parts: {', '.join(known)}" if known else "it runs whole"))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(
         description="Run a named benchmark suite (or all), write results/<suite>.json and "
@@ -62,7 +81,9 @@ def main() -> None:
     parser.add_argument("--parts", nargs="+", default=None, metavar="PART",
                         help="run only these parts of the suite and replace them in the "
                              "existing results/<suite>.json (e.g. speed again on a quiet "
-                             "machine); default: all")
+                             "machine); default: all. Parts: " + "; ".join(
+                                 f"{name}: {', '.join(parts(name)) or 'none (runs whole)'}"
+                                 for name in SUITES))
     parser.add_argument("--backend", default="local", choices=BACKENDS,
                         help="suites that sweep clips (accuracy, tracking, paper, cnn): run the "
                              "cells here or as Ray tasks (default: %(default)s)")
@@ -72,6 +93,7 @@ def main() -> None:
                         help="suites that sweep clips: go on from results/<suite>.cells.jsonl "
                              "after an interruption")
     args = parser.parse_args()
+    check_parts(parser, args)
     for name in SUITES if args.suite == "all" else [args.suite]:
         run_suite(name, args)
     if not args.quick:

@@ -8,6 +8,7 @@ torques are not scored here).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -16,12 +17,17 @@ import numpy as np
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import ClipSpec, get_scenario
 from imimic_gym.clips.types import MODALITIES, Clip, depth_to_frame
-from imimic_gym.estimators.registry import ESTIMATORS, build_estimator, get_estimator
+from imimic_gym.estimators.registry import (
+    ESTIMATORS,
+    UnsupportedClipError,
+    build_estimator,
+    get_estimator,
+)
 from imimic_gym.estimators.types import EstimatorContext
 from imimic_gym.metrics import OCCLUDED, angle_rmse_deg, lag_frames
 
-__all__ = ["WARM_UP_S", "clip_context", "evaluate_clip", "evaluate_estimator", "evaluate_photos",
-           "summarise_estimator"]
+__all__ = ["WARM_UP_S", "cannot_score", "clip_context", "evaluate_clip", "evaluate_estimator",
+           "evaluate_photos", "summarise_estimator"]
 
 WARM_UP_S = 0.5  # frame-differencing estimators see nothing until the arm has moved
 PREDICTION_ON = 0.3  # the trust threshold used for "with the prediction layer"
@@ -31,12 +37,32 @@ PREDICTING = ("don", "don-paper")  # estimators with a prediction layer to score
 def clip_context(spec: ClipSpec, clip: Clip, modality: str = "rgb") -> EstimatorContext:
     """The context of a scenario's clip as `ImitateVideoEnv.estimator_context` gives it,
     less the robot model (no torques) and the truth (the oracle is not scored here)."""
+    return replace(_spec_context(spec, modality), fps=float(clip.fps),
+                   reference_direction=float(clip.meta.get("reference_direction",
+                                                           spec.reference_direction)))
+
+
+def _spec_context(spec: ClipSpec, modality: str) -> EstimatorContext:
+    """`clip_context` as the scenario's settings give it, before its clip is rendered."""
     return EstimatorContext(
-        fps=float(clip.fps), link_parents=tuple(spec.link_parents),
+        fps=float(spec.fps), link_parents=tuple(spec.link_parents),
         joint_ranges=tuple((float(lo), float(hi)) for lo, hi in spec.joint_ranges),
-        reference_direction=float(clip.meta.get("reference_direction",
-                                                spec.reference_direction)),
-        modality=modality, demonstrator=spec.demonstrator)
+        reference_direction=float(spec.reference_direction), modality=modality,
+        demonstrator=spec.demonstrator)
+
+
+def cannot_score(scenario: str, estimator: str, modality: str = "rgb",
+                 controlled: bool = False) -> str | None:
+    """Why ``estimator`` cannot be scored on clips of ``scenario``, known before any clip
+    is rendered, or None if it can: alone (`evaluate_clip`) or, ``controlled``, driving
+    a controller (the tracking suite, where the env gives the oracle the truth). Alone,
+    an estimator that is the truth itself has nothing to be scored against; otherwise
+    `EstimatorEntry.unsupported` says. Unknown names raise ValueError."""
+    entry = get_estimator(estimator)
+    if entry.needs_truth:
+        return None if controlled else (f"estimator {estimator!r} is the truth itself: "
+                                        "score it with a controller")
+    return entry.unsupported(_spec_context(get_scenario(scenario), modality))
 
 
 def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
@@ -63,14 +89,16 @@ def evaluate_clip(scenario: str, estimator: str, seed: int, modality: str = "rgb
     peak, after warm-up), mean trust eta, and where the clip has occluded frames (over 10%
     of the moving links hidden), the mean eta on those frames and on the others, and the
     RMSE on them with the prediction layer off and on (DON only, with or without its
-    appearance layer).
+    appearance layer). The figures after warm-up are None for a clip that ends within it.
+
+    Raises `UnsupportedClipError` (a ValueError) where `cannot_score` gives a reason.
     """
     if modality not in MODALITIES:
         raise ValueError(f"unknown modality {modality!r}; expected one of {MODALITIES}")
+    why = cannot_score(scenario, estimator, modality)
+    if why:
+        raise UnsupportedClipError(why)
     spec = get_scenario(scenario, **({"n_frames": frames} if frames else {}))
-    if get_estimator(estimator).needs_truth:
-        raise ValueError(f"estimator {estimator!r} is the truth itself: score it with a "
-                         "controller")
     clip = load_clip(spec.replace(seed=seed), progress=False)
     assert clip.truth is not None and clip.depth is not None  # a rendered clip has both
     images = clip.frames if modality == "rgb" else depth_to_frame(clip.depth)
@@ -82,14 +110,9 @@ def evaluate_clip(scenario: str, estimator: str, seed: int, modality: str = "rgb
     row: dict[str, Any] = {
         "seed": seed,
         "rmse_deg": angle_rmse_deg(angles, truth),
-        "rmse_deg_settled": angle_rmse_deg(angles[warm:], truth[warm:]),
-        "lag_frames": lag_frames(truth[warm:], angles[warm:]),
+        **_settled(angles[warm:], truth[warm:], spec.n_links),
         "mean_trust": float(np.mean([e.trust for e in estimates])),
     }
-    if spec.n_links > 1:
-        for joint in range(spec.n_links):
-            row[f"rmse_deg_settled_q{joint + 1}"] = angle_rmse_deg(angles[warm:, joint],
-                                                                  truth[warm:, joint])
     occluded = clip.truth.occlusion > OCCLUDED
     row["occluded_frames"] = int(occluded.sum())
     if occluded.any() and not occluded.all():
@@ -107,13 +130,30 @@ def evaluate_clip(scenario: str, estimator: str, seed: int, modality: str = "rgb
     return row
 
 
+def _settled(angles: np.ndarray, truth: np.ndarray, n_links: int) -> dict[str, Any]:
+    """The scores after warm-up, from the estimated and true angles (T, n_links) rad of
+    the frames after it: RMSE (deg; with several links also per joint) and lag (frames);
+    each None when the clip ends within the warm-up (T = 0)."""
+    joints = [f"rmse_deg_settled_q{joint + 1}" for joint in range(n_links)] if n_links > 1 else []
+    if len(truth) == 0:
+        return dict.fromkeys(["rmse_deg_settled", "lag_frames", *joints])
+    return {"rmse_deg_settled": angle_rmse_deg(angles, truth),
+            "lag_frames": lag_frames(truth, angles),
+            **{key: angle_rmse_deg(angles[:, joint], truth[:, joint])
+               for joint, key in enumerate(joints)}}
+
+
 def summarise_estimator(scenario: str, estimator: str, modality: str,
                         rows: list[dict[str, Any]]) -> dict[str, Any]:
     """`evaluate_estimator`'s result from its per-seed rows (in seed order): every
     metric's mean, over the clips that have it (occlusion figures exist only for clips
-    with occluded frames)."""
+    with occluded frames); None where no clip has it (the settled figures of clips that
+    end within the warm-up)."""
     keys = dict.fromkeys(key for row in rows for key in row if key != "seed")
-    summary = {key: float(np.mean([r[key] for r in rows if key in r])) for key in keys}
+    summary = {}
+    for key in keys:
+        values = [r[key] for r in rows if r.get(key) is not None]
+        summary[key] = float(np.mean(values)) if values else None
     return {"scenario": scenario, "estimator": estimator, "modality": modality,
             "episodes": len(rows), "first_seed": rows[0]["seed"] if rows else None,
             "warm_up_s": WARM_UP_S, "mean": summary, "rows": rows}

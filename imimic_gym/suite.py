@@ -10,7 +10,7 @@ adding one is one line.
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any, cast
 
@@ -25,7 +25,7 @@ from imimic_gym.rollout import Step, Trajectory, TrajectoryLog, run_episode
 
 __all__ = [
     "CONTROLLERS", "FIRST_HELD_OUT_SEED", "METRICS", "RunConfig", "estimator_wrapper",
-    "run_config", "run_suite", "summarise", "summarise_rows",
+    "iter_suite", "run_config", "run_suite", "summarise", "summarise_rows",
 ]
 
 FIRST_HELD_OUT_SEED = 1000  # training and tests use clip seeds below this
@@ -211,10 +211,16 @@ def run_suite(configs: Sequence[RunConfig], num_envs: int = 1,
               ) -> list[dict[str, Any]]:
     """Run every config (a progress bar over them) and summarise each.
     ``on_trajectory`` gets each config's first trajectory (for plots)."""
-    results = []
+    return list(iter_suite(configs, num_envs, on_trajectory))
+
+
+def iter_suite(configs: Sequence[RunConfig], num_envs: int = 1,
+               on_trajectory: Callable[[RunConfig, Trajectory], None] | None = None,
+               ) -> Iterator[dict[str, Any]]:
+    """`run_suite` one config at a time: each summary as soon as its config has run, so
+    a caller stopped midway (Ctrl-C) keeps those before."""
     for config in tqdm(configs, desc="imimic eval", unit="run"):
         trajectories = run_config(config, num_envs=num_envs)
         if on_trajectory is not None:
             on_trajectory(config, trajectories[0])
-        results.append(summarise(config, trajectories))
-    return results
+        yield summarise(config, trajectories)

@@ -1,6 +1,10 @@
 import json
+import os
+import signal
 import subprocess
 import sys
+import time
+from pathlib import Path
 
 import cv2
 import pytest
@@ -120,6 +124,53 @@ def test_bench_env_and_render_report_every_figure() -> None:
     assert all(fps > 0 for fps in render.values())
 
 
+def test_bench_help_gives_the_defaults_of_the_benchmarks(capsys) -> None:
+    import inspect
+
+    from imimic_gym.bench import bench_don, bench_env
+
+    with pytest.raises(SystemExit):
+        main(["bench", "--help"])
+    shown = " ".join(capsys.readouterr().out.split())
+    env, don = (inspect.signature(f).parameters for f in (bench_env, bench_don))
+    assert f"env only: steps per timed run (default: {env['steps'].default})" in shown
+    assert f"(env, default: {env['repeats'].default})" in shown
+    assert f"(don's table, default: {don['repeats'].default})" in shown
+
+
+@pytest.mark.slow
+def test_bench_don_takes_repeats(tmp_path) -> None:
+    out = tmp_path / "don.json"
+    assert main(["bench", "don", "--repeats", "1", "--json", str(out)]) == 0
+    result = json.loads(out.read_text())
+    assert result["repeats"] == 1 and len(result["rows"]) == 4
+    assert (tmp_path / "don_window.png").exists() and (tmp_path / "don_lighting.png").exists()
+
+
+RUNNER = Path(__file__).resolve().parents[1] / "benchmarks" / "run.py"
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["accuracy", "--quick", "--parts", "nonsense", "depth"],
+     "suite accuracy has no part nonsense; its parts: estimators, depth"),
+    (["tracking", "--quick", "--parts", "all"], "suite tracking has no part all; it runs whole"),
+    (["all", "--quick", "--parts", "env"], "--parts names parts of one suite, not of all"),
+])
+def test_the_benchmark_runner_refuses_parts_a_suite_does_not_have(argv, message) -> None:
+    done = subprocess.run([sys.executable, str(RUNNER), *argv], capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 2
+    assert done.stderr.strip().splitlines()[-1] == f"run.py: error: {message}"
+    assert "wrote" not in done.stdout
+
+
+def test_the_benchmark_runners_help_lists_each_suites_parts() -> None:
+    shown = " ".join(subprocess.run([sys.executable, str(RUNNER), "--help"],
+                                    capture_output=True, text=True, check=True).stdout.split())
+    assert "accuracy: estimators, depth;" in shown and "tracking: none (runs whole);" in shown
+    assert "speed: env, step, render, don, fig3, links, compile;" in shown
+
+
 def test_scenarios_lists_every_scenario(capsys) -> None:
     from imimic_gym.clips.scenarios import scenario_names
 
@@ -133,6 +184,20 @@ def test_scenarios_lists_every_scenario(capsys) -> None:
     (["demo", "--frames", "0"], "--frames: expected a whole number of at least 2, got 0"),
     (["eval", "--episodes", "0"], "--episodes: expected a whole number of at least 1, got 0"),
     (["bench", "env", "--steps", "0"], "--steps: expected a whole number of at least 1"),
+    (["eval", "--paper", "--scenario", "exp2-servo"], "imimic eval: --paper runs the paper's "
+     "own scenarios, estimators and controllers; it does not take --scenario"),
+    (["eval", "--paper", "--controller", "position", "--estimator", "don"],
+     "it does not take --estimator, --controller"),
+    (["eval", "--photos", "arms.json", "--images", "photos", "--controller", "position",
+      "--scenario", "default", "--paper"], "imimic eval: --photos scores estimators on "
+     "single photos; it does not take --scenario, --controller, --paper"),
+    (["eval", "--photos", "arms.json", "--frames", "30"], "it does not take --frames"),
+    (["eval", "--controller", "oracle", "--modality", "depth"],
+     "--controller runs the tracking suite on the colour video; it does not take --modality"),
+    (["eval", "--estimator", "mog2", "--out", "here"], "estimators are scored alone (into "
+     "--json); it does not take --out"),
+    (["bench", "don", "--steps", "500"],
+     "imimic bench don: --steps counts env steps per timed run; don times each estimator"),
     (["mimic", "--video", "x.mp4", "--fps", "0"], "--fps: expected a finite number above 0"),
     (["mimic", "--video", "x.mp4", "--servo-range", "120", "0"],
      "--servo-range takes LOW HIGH in degrees with LOW < HIGH, got 120 0"),
@@ -180,6 +245,91 @@ def test_a_refused_demo_leaves_no_output_folder(tmp_path) -> None:
     with pytest.raises(SystemExit):
         main(["demo", "--estimator", "pose", "--frames", "5", "--out", str(tmp_path / "o")])
     assert not (tmp_path / "o").exists()
+
+
+SHORT = ["--episodes", "1", "--frames", "20"]
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["eval", "--controller", "position", "--out", "{file}", "--json", "{tmp}/o.json", *SHORT],
+     "--out {file} is a file; expected a folder to write"),
+    (["eval", "--controller", "position", "--out", "{tmp}/out", "--json", "{folder}", *SHORT],
+     "--json {folder} is a folder; expected a file to write"),
+    (["eval", "--json", "{folder}", *SHORT],
+     "--json {folder} is a folder; expected a file to write"),
+    (["eval", "--json", "{file}/sub/o.json", *SHORT],
+     "--json {file}/sub/o.json: {file} is a file, not a folder"),
+    (["eval", "--results", "{folder}", *SHORT],
+     "--results {folder} is a folder; expected a file to write"),
+    (["bench", "don", "--json", "{folder}"],
+     "--json {folder} is a folder; expected a file to write"),
+])
+def test_an_output_that_cannot_be_written_is_refused_before_any_work(
+        argv, message, tmp_path, capsys, monkeypatch) -> None:
+    monkeypatch.setenv("IMIMIC_CACHE_DIR", str(tmp_path / "cache"))
+    names = {"file": tmp_path / "a_file", "folder": tmp_path / "a_folder", "tmp": tmp_path}
+    names["file"].write_text("")
+    names["folder"].mkdir()
+    with pytest.raises(SystemExit) as stop:
+        main([arg.format(**names) for arg in argv])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert message.format(**names) in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "cache").exists()  # refused before a clip was rendered
+    assert not (tmp_path / "o.json").exists()
+
+
+@pytest.mark.parametrize("suite", [False, True])
+def test_ctrl_c_during_eval_keeps_the_results_that_had_finished(suite, tmp_path) -> None:
+    """Ctrl-C once a first result is in (a printed row; for the suite, two plots): exit
+    130, one line on stderr, and the finished results printed and in --json (eval.md)."""
+    scenarios = ["exp2-servo", "default", "exp3-forearm-low", "chain-2", "chain-3"]
+    command = [sys.executable, "-m", "imimic_gym.cli", "eval", "--scenario", *scenarios,
+               "--estimator", "don", "--episodes", "2", "--frames", "40", "--json",
+               str(tmp_path / "kept.json")]
+    if suite:
+        command += ["--controller", "position", "--out", str(tmp_path / "out")]
+    run = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           env={**os.environ, "MUJOCO_GL": "egl",
+                                "IMIMIC_CACHE_DIR": str(tmp_path / "cache")})
+    if suite:
+        while len(list((tmp_path / "out" / "plots").glob("*.png"))) < 2 and run.poll() is None:
+            time.sleep(0.05)
+    else:
+        run.stdout.readline()
+    assert run.poll() is None, "eval ended before it could be stopped"
+    run.send_signal(signal.SIGINT)
+    out, err = run.communicate(timeout=300)
+    said = f"stdout:\n{out}\nstderr:\n{err[-2000:]}"  # for a failure to explain itself
+    assert run.returncode == 130, said
+    kept = json.loads((tmp_path / "kept.json").read_text())
+    assert err.strip().splitlines()[-1] == (f"imimic eval: stopped by Ctrl-C; kept the "
+                                            f"{len(kept)} results that had finished"), said
+    assert 1 <= len(kept) < len(scenarios), said
+    assert [r["scenario"] for r in kept] == scenarios[:len(kept)], said
+    assert kept[0]["episodes"] == 2, said
+    if suite:
+        assert (tmp_path / "out" / "eval.md").read_text().count("| don | position |") == len(kept)
+    else:
+        assert out.count(" rmse ") == len(kept) - 1, said  # the first row was read above
+
+
+def test_ctrl_c_inside_a_compiled_call_counts_as_ctrl_c() -> None:
+    """Ctrl-C during DON's numba loops reaches Python as SystemError("... returned a result
+    with an exception set"), once per compiled call it interrupts, over the
+    KeyboardInterrupt; any other SystemError is a bug."""
+    from imimic_gym.cli.evaluate import _ctrl_c
+
+    def raised(cause: BaseException, layers: int) -> BaseException:
+        error = cause
+        for _ in range(layers):
+            wrapper = SystemError("CPUDispatcher(...) returned a result with an exception set")
+            wrapper.__cause__ = error
+            error = wrapper
+        return error
+
+    assert _ctrl_c(raised(KeyboardInterrupt(), 0)) and _ctrl_c(raised(KeyboardInterrupt(), 2))
+    assert not _ctrl_c(raised(ValueError(), 1)) and not _ctrl_c(SystemError("a bug"))
 
 
 def test_a_bad_cache_bound_is_one_line(tmp_path, capsys, monkeypatch) -> None:

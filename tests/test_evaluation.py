@@ -23,6 +23,30 @@ def test_eval_writes_json_with_finite_metrics(tmp_path) -> None:
     assert don["rmse_deg_settled"] < 3.0  # the servo, after warm-up
 
 
+@pytest.mark.parametrize("frames", [2, 15, 16])
+def test_a_clip_within_the_warm_up_is_scored_without_settled_figures(frames, tmp_path,
+                                                                     capsys) -> None:
+    """The warm-up is 15 frames at 30 fps: a clip no longer has RMSE and trust over all
+    its frames, and no figures after warm-up (None, not NaN); one frame more has them."""
+    out = tmp_path / "short.json"
+    assert main(["eval", "--scenario", "exp2-servo", "chain-2", "--episodes", "1",
+                 "--frames", str(frames), "--json", str(out)]) == 0
+
+    def refuse(constant: str) -> None:
+        raise AssertionError(f"{constant} in the JSON")
+
+    results = json.loads(out.read_text(), parse_constant=refuse)
+    within = frames <= 15
+    for result in results:
+        for scores in (result["mean"], result["rows"][0]):
+            assert math.isfinite(scores["rmse_deg"]) and 0 <= scores["mean_trust"] <= 1
+            settled = [key for key in scores if key.startswith("rmse_deg_settled")]
+            assert len(settled) == (3 if result["scenario"] == "chain-2" else 1)
+            for key in [*settled, "lag_frames"]:
+                assert (scores[key] is None) if within else math.isfinite(scores[key])
+    assert ("end within the 0.5 s warm-up" in capsys.readouterr().out) == within
+
+
 def test_occluded_frames_are_scored_with_and_without_prediction() -> None:
     result = evaluate_estimator("exp3-forearm-high", "don", episodes=1)
     row = result["rows"][0]
@@ -49,6 +73,37 @@ def test_eval_refuses_an_unknown_modality() -> None:
 def test_eval_refuses_baselines_on_multi_link_scenarios() -> None:
     with pytest.raises(ValueError, match="follows one moving link; this clip has 2"):
         evaluate_estimator("chain-2", "camshift", episodes=1)
+
+
+@pytest.mark.parametrize(("scenario", "estimator", "controlled", "why"), [
+    ("exp2-servo", "don", False, None),
+    ("exp2-servo", "cnn", False, "estimator 'cnn' reads a human demonstrator's arm; this "
+                                "clip shows a 'servo' demonstrator"),
+    ("chain-3", "mog2", True, "estimator 'mog2' follows one moving link; this clip has 3"),
+    ("exp2-servo", "oracle", False, "estimator 'oracle' is the truth itself: score it with "
+                                   "a controller"),
+    ("chain-3", "oracle", True, None),
+])
+def test_cannot_score_says_why_before_a_clip_is_rendered(scenario, estimator, controlled,
+                                                         why) -> None:
+    from imimic_gym.evaluation import cannot_score
+
+    assert cannot_score(scenario, estimator, controlled=controlled) == why
+
+
+def test_eval_checks_every_estimator_and_scenario_before_running_any(
+        tmp_path, capsys, monkeypatch) -> None:
+    monkeypatch.setenv("IMIMIC_CACHE_DIR", str(tmp_path / "cache"))
+    with pytest.raises(SystemExit) as stop:
+        main(["eval", "--scenario", "exp2-servo", "--estimator", "don", "cnn", "--episodes",
+              "1", "--frames", "30", "--json", str(tmp_path / "part.json")])
+    assert stop.value.code == 2
+    printed = capsys.readouterr()
+    assert printed.err.strip() == ("imimic eval: 'exp2-servo': estimator 'cnn' reads a human "
+                                   "demonstrator's arm; this clip shows a 'servo' "
+                                   "demonstrator")
+    assert "rmse" not in printed.out  # not even DON's row ran
+    assert not (tmp_path / "cache").exists() and not (tmp_path / "part.json").exists()
 
 
 def test_eval_scores_don_per_joint_on_two_links() -> None:

@@ -81,6 +81,15 @@ def test_estimator_only_eval_refuses_baselines_on_several_links_by_name() -> Non
         main(["eval", "--scenario", "chain-2", "--estimator", "mog2", "--episodes", "1"])
 
 
+def test_a_suite_with_nothing_that_can_run_is_refused_by_name(tmp_path, capsys) -> None:
+    with pytest.raises(SystemExit) as stop:
+        main(["eval", "--scenario", "exp2-servo", "--estimator", "cnn", "--controller",
+              "position", *TINY, "--out", str(tmp_path / "out")])
+    assert stop.value.code == 2
+    assert "nothing to run: exp2-servo/cnn/position cannot run" in capsys.readouterr().err
+    assert not (tmp_path / "out" / "eval.md").exists()
+
+
 def test_a_vectorised_sweep_on_clips_not_yet_rendered_finishes(tmp_path) -> None:
     """Sub-env processes forked by gym.make_vec that each had to render a clip hung; the
     suite renders the clips first. Run in a child process with an empty clip cache, so a

@@ -117,7 +117,7 @@ def test_sweep_inputs_that_cannot_work_are_said(tmp_path, capsys, monkeypatch) -
             (["--results", str(tmp_path / "k.jsonl"), "--num-envs", "2"], "--num-envs"),
             (["--address", "auto"], "--address is the Ray cluster"),
             (["--scenario", "chain-2", "--estimator", "mog2", "--backend", "ray"],
-             "'chain-2' has 2 moving links")):
+             "'chain-2': estimator 'mog2' follows one moving link; this clip has 2")):
         with pytest.raises(SystemExit) as exit_:
             main(base + extra)
         assert exit_.value.code == 2

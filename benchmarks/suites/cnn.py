@@ -110,8 +110,11 @@ def speed(args: Any) -> dict[str, Any]:
             "threads": 1, **ms, "ratio_cnn_to_don": ms["cnn_ms"] / ms["don_ms"]}
 
 
+PARTS = {"checkpoints": checkpoints, "clips": clips, "speed": speed}
+
+
 def run(args: Any) -> dict[str, Any]:
-    return run_parts("cnn", {"checkpoints": checkpoints, "clips": clips, "speed": speed}, args)
+    return run_parts("cnn", PARTS, args)
 
 
 # The report ---------------------------------------------------------------------------

@@ -60,8 +60,11 @@ def cnn_training(args: Any) -> dict[str, Any]:
             "same_test_figures_as_shipped": meta["test"] == shipped}
 
 
+PARTS = {"paper_eval": paper_eval, "cnn_training": cnn_training}
+
+
 def run(args: Any) -> dict[str, Any]:
-    return run_parts("fresh_clone", {"paper_eval": paper_eval, "cnn_training": cnn_training}, args)
+    return run_parts("fresh_clone", PARTS, args)
 
 
 def _met(ok: bool) -> str:

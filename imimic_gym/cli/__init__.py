@@ -13,6 +13,7 @@ from imimic_gym.cli.cache import add_cache
 from imimic_gym.cli.common import (
     CommandError,
     at_least,
+    check_writable,
     estimator_names,
     output_folder,
     print_table,
@@ -138,11 +139,15 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
 def cmd_bench(args: argparse.Namespace) -> int:
     from imimic_gym.bench import bench_env, bench_render, machine
 
+    if args.what == "don" and args.steps is not None:
+        raise CommandError("imimic bench don: --steps counts env steps per timed run; don "
+                           "times each estimator on one fixed clip (--repeats sets how often)")
+    check_writable("bench", "--json", args.json)
     result: dict[str, Any] = {"machine": machine()}
     if args.what == "don":
         return _bench_don(args, result)
     print("ImitateVideo-v0 vs Reacher-v5, steps/s (median of alternating runs)...")
-    result.update(bench_env(steps=args.steps, repeats=args.repeats))
+    result.update(bench_env(**_given(args, "steps", "repeats")))
     print(f"  imitate {result['imitate_steps_per_s']:.0f}  reacher "
           f"{result['reacher_steps_per_s']:.0f}  ratio {result['ratio']:.2f} (target >= 0.5)")
     print("clip rendering at 240x320, frames/s, truth included, no cache...")
@@ -153,12 +158,21 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def _given(args: argparse.Namespace, *names: str) -> dict[str, Any]:
+    """The options among ``names`` that the user gave (their defaults are None), as
+    keyword arguments: the others keep the benchmark function's own defaults."""
+    return {name: getattr(args, name) for name in names if getattr(args, name) is not None}
+
+
 def _bench_don(args: argparse.Namespace, result: dict[str, Any]) -> int:
     from imimic_gym.bench import bench_don, don_window_and_lighting
 
+    prefix = str(Path(args.json).with_suffix("")) if args.json else "bench_don"
+    for figure in ("window", "lighting"):
+        check_writable("bench", "the plot", f"{prefix}_{figure}.png")
     print("DON, baselines and raw OpenCV MOG2, CPU ms per frame on the same frames, "
           "1 thread...")
-    result.update(bench_don())
+    result.update(bench_don(**_given(args, "repeats")))
     print(f"  {'resolution':11s} {'DON':>7s} {'paper':>7s} {'MOG2 est':>9s} {'CamShift':>9s} "
           f"{'MOG2 raw':>9s} {'DON/MOG2':>9s} {'paper/MOG2':>10s}")
     for row in result["rows"]:
@@ -167,7 +181,6 @@ def _bench_don(args: argparse.Namespace, result: dict[str, Any]) -> int:
               f"{row['mog2_raw_ms']:9.2f} {row['ratio_mog2']:9.2f} "
               f"{row['ratio_mog2_paper']:10.2f}")
     print("  (paper: DON with the paper's layers only, without the appearance layer)")
-    prefix = str(Path(args.json).with_suffix("")) if args.json else "bench_don"
     print("time against N and detected area against light (paper Fig. 3)...")
     result["figure3"] = don_window_and_lighting(prefix)
     print(f"  wrote {prefix}_window.png and {prefix}_lighting.png")
@@ -249,9 +262,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     bench.add_argument("what", choices=("env", "don"), help="which benchmark")
     bench.add_argument("--json", default=None, help="also write the results to this file")
-    bench.add_argument("--steps", type=at_least(1), default=3000, help="steps per timed run")
-    bench.add_argument("--repeats", type=at_least(1), default=5,
-                       help="alternating timed runs per env")
+    bench.add_argument("--steps", type=at_least(1), default=None,
+                       help="env only: steps per timed run (default: 3000)")
+    bench.add_argument("--repeats", type=at_least(1), default=None,
+                       help="alternating timed runs, of which the median is reported: per "
+                            "env (env, default: 5), or per estimator and resolution (don's "
+                            "table, default: 7)")
     bench.set_defaults(func=cmd_bench)
     add_mimic(sub)
     add_label(sub)

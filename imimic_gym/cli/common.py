@@ -105,6 +105,26 @@ def save_json(path: str | None, data: object) -> None:
         print(f"wrote {path}")
 
 
+def check_writable(command: str, flag: str, path: str | None, folder: bool = False) -> None:
+    """Refuse, before any work, an output ``path`` (given as ``flag``; a folder if
+    ``folder``, else a file) that cannot be written: a file where a folder is wanted or
+    the reverse, a file on the way to it, or a folder this user may not write in. Folders
+    on the way that do not exist yet are fine (they are made). Nothing for no path."""
+    if not path:
+        return
+    target = Path(path)
+    wanted = "folder" if folder else "file"
+    if target.exists() and target.is_dir() != folder:
+        raise CommandError(f"imimic {command}: {flag} {path} is a "
+                           f"{'file' if folder else 'folder'}; expected a {wanted} to write")
+    nearest = next(p for p in (target, *target.parents) if p.exists())
+    if not nearest.is_dir() and nearest != target:
+        raise CommandError(f"imimic {command}: {flag} {path}: {nearest} is a file, not a "
+                           "folder")
+    if not os.access(nearest, os.W_OK):
+        raise CommandError(f"imimic {command}: {flag} {path}: {nearest} is not writable")
+
+
 def print_table(rows: dict[str, object]) -> None:
     width = max(len(k) for k in rows)
     for key, value in rows.items():

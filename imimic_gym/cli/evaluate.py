@@ -4,6 +4,8 @@ held-out clips, or estimators on annotated photos; here or as a sweep on Ray."""
 from __future__ import annotations
 
 import argparse
+import sys
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -14,12 +16,23 @@ from imimic_gym.cli.common import (
     add_clip_seeds,
     at_least,
     check_backend,
+    check_writable,
     estimator_names,
     save_json,
 )
 
+# The defaults of the options one mode takes and another refuses: None in argparse, so
+# that an option the user gave is told from one left out.
+DEFAULTS = {"scenario": ["exp2-servo"], "estimator": ["don"], "modality": "rgb",
+            "out": "eval_out"}
+
 
 def cmd_eval(args: argparse.Namespace) -> int:
+    _refuse_ignored(args)
+    for name, value in DEFAULTS.items():
+        if getattr(args, name) is None:
+            setattr(args, name, value)
+    _check_outputs(args)
     sweep = args.backend == "ray" or args.results is not None
     if args.photos or args.images:
         if sweep:
@@ -35,22 +48,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
                            "sweep (--backend ray or --results) runs one cell per clip instead")
     if args.paper or args.controller:
         return _cmd_eval_suite(args, sweep)
-    from imimic_gym.clips.scenarios import get_scenario
-    from imimic_gym.estimators.registry import get_estimator
-
-    truth = [name for name in args.estimator if get_estimator(name).needs_truth]
-    if truth:
-        raise CommandError(f"imimic eval: the {truth[0]} estimator is the truth itself; score "
-                         "it with a controller (--controller ...) or use an estimator that "
-                         "reads the video")
+    _refuse_unscorable(args)
     if sweep:
-        for scenario in args.scenario:
-            n_links = get_scenario(scenario).n_links
-            for estimator in args.estimator:
-                links = get_estimator(estimator).links
-                if n_links not in links:
-                    raise CommandError(f"imimic eval: {scenario!r} has {n_links} moving "
-                                       f"links; {estimator} follows {links}")
         from imimic_gym.sweep import Cell
 
         cells = [Cell(scenario, estimator, None, seed, args.frames, args.modality)
@@ -61,21 +60,110 @@ def cmd_eval(args: argparse.Namespace) -> int:
             _print_estimator_result(result)
         save_json(args.json, results)
         return _report_failures(failed, args)
-    from imimic_gym.evaluation import evaluate_estimator
+    results, stopped = _score_alone(args)
+    save_json(args.json, results)
+    return _stopped_by_ctrl_c(len(results)) if stopped else 0
 
-    results = []
+
+def _score_alone(args: argparse.Namespace) -> tuple[list[dict], bool]:
+    """Each estimator on each scenario's clips here (`evaluation.evaluate_clip`), each
+    result printed as it finishes: the results, and whether Ctrl-C stopped them (the last
+    result is then over the clips that had finished, if any had)."""
+    from imimic_gym.evaluation import evaluate_clip, summarise_estimator
+
+    rows: dict[tuple[str, str], list[dict]] = {}  # one try around all: no gap for Ctrl-C
+
+    def result(pair: tuple[str, str]) -> dict:
+        return summarise_estimator(*pair, args.modality, rows[pair])
+
+    try:
+        for pair in ((s, e) for s in args.scenario for e in args.estimator):
+            for seed in _seeds(args):
+                row = evaluate_clip(*pair, seed, args.modality, args.frames)
+                rows.setdefault(pair, []).append(row)
+            _print_estimator_result(result(pair))
+    except (KeyboardInterrupt, SystemError) as error:
+        if not _ctrl_c(error):
+            raise
+        unfinished = [pair for pair in rows if len(rows[pair]) < args.episodes]
+        for pair in unfinished:
+            _print_estimator_result(result(pair))
+        return [result(pair) for pair in rows], True
+    return [result(pair) for pair in rows], False
+
+
+def _until_ctrl_c(items: Iterable, into: list) -> bool:
+    """Append ``items`` to ``into`` as they come; True if Ctrl-C stopped them first."""
+    try:
+        for item in items:
+            into.append(item)
+    except (KeyboardInterrupt, SystemError) as error:
+        if not _ctrl_c(error):
+            raise
+        return True
+    return False
+
+
+def _ctrl_c(error: BaseException | None) -> bool:
+    """Whether ``error`` is Ctrl-C: a KeyboardInterrupt, or the SystemError ("returned a
+    result with an exception set") that Python raises over one, once per compiled call
+    it interrupts (DON's numba loops)."""
+    while isinstance(error, SystemError):
+        error = error.__cause__
+    return isinstance(error, KeyboardInterrupt)
+
+
+def _stopped_by_ctrl_c(finished: int) -> int:
+    """Exit code 130, saying what was kept (printed, and written where asked)."""
+    print(f"imimic eval: stopped by Ctrl-C; kept the {finished} results that had finished",
+          file=sys.stderr)
+    return 130
+
+
+def _refuse_ignored(args: argparse.Namespace) -> None:
+    """Refuse, naming them, the options the user gave that the chosen mode would ignore
+    (options that are None or False were not given)."""
+    ignored: tuple[str, ...]
+    if args.photos or args.images:
+        mode = "--photos scores estimators on single photos"
+        ignored = ("scenario", "controller", "paper", "modality", "frames", "out")
+    elif args.paper:
+        mode = "--paper runs the paper's own scenarios, estimators and controllers"
+        ignored = ("scenario", "estimator", "controller", "modality")
+    elif args.controller:
+        mode = "--controller runs the tracking suite on the colour video"
+        ignored = ("modality",)
+    else:
+        mode = "without --controller or --paper, estimators are scored alone (into --json)"
+        ignored = ("out",)
+    given = [f"--{name}" for name in ignored if getattr(args, name) not in (None, False)]
+    if given:
+        raise CommandError(f"imimic eval: {mode}; it does not take {', '.join(given)}")
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Refuse outputs that cannot be written before any clip runs, so that no result is
+    computed and then lost: --json, --results and, for the suite, --out with eval.md
+    and plots/ in it."""
+    check_writable("eval", "--json", args.json)
+    check_writable("eval", "--results", args.results)
+    if args.paper or args.controller:
+        out = Path(args.out)
+        check_writable("eval", "--out", args.out, folder=True)
+        check_writable("eval", "--out", str(out / "plots"), folder=True)
+        check_writable("eval", "--out", str(out / "eval.md"))
+
+
+def _refuse_unscorable(args: argparse.Namespace) -> None:
+    """Before any clip runs, refuse an estimator that cannot be scored on a scenario
+    asked for (`evaluation.cannot_score`), naming the pair and why."""
+    from imimic_gym.evaluation import cannot_score
+
     for scenario in args.scenario:
         for estimator in args.estimator:
-            try:
-                result = evaluate_estimator(scenario, estimator, episodes=args.episodes,
-                                            first_seed=args.first_seed,
-                                            modality=args.modality, frames=args.frames)
-            except ValueError as error:  # e.g. a several-link scenario for a 1-link one
-                raise CommandError(f"imimic eval: {scenario!r}: {error}") from error
-            results.append(result)
-            _print_estimator_result(result)
-    save_json(args.json, results)
-    return 0
+            why = cannot_score(scenario, estimator, args.modality)
+            if why:
+                raise CommandError(f"imimic eval: {scenario!r}: {why}")
 
 
 def _seeds(args: argparse.Namespace) -> tuple[int, ...]:
@@ -88,9 +176,18 @@ def _print_estimator_result(result: dict) -> None:
     if "rmse_occluded_deg_prediction_on" in mean:
         occluded = (f"  occluded: {mean['rmse_occluded_deg_prediction_off']:.1f} "
                     f"(prediction off) / {mean['rmse_occluded_deg_prediction_on']:.1f} (on)")
+    within = ""
+    if mean["rmse_deg_settled"] is None:
+        within = f" (the clips end within the {result['warm_up_s']:g} s warm-up)"
     print(f"{result['scenario']:20s} {result['estimator']:9s} rmse {mean['rmse_deg']:6.2f} "
-          f"deg, settled {mean['rmse_deg_settled']:6.2f} deg, lag {mean['lag_frames']:5.1f} "
-          f"frames, eta {mean['mean_trust']:.2f}{occluded}", flush=True)
+          f"deg, settled {_shown(mean['rmse_deg_settled'], 2):>6s} deg, lag "
+          f"{_shown(mean['lag_frames'], 1):>5s} frames, eta {mean['mean_trust']:.2f}"
+          f"{occluded}{within}", flush=True)
+
+
+def _shown(value: float | None, digits: int) -> str:
+    """``value`` with ``digits`` decimals, or "-" for a figure that does not exist."""
+    return "-" if value is None else f"{value:.{digits}f}"
 
 
 def _run_sweep(cells: list, args: argparse.Namespace) -> tuple[list[dict], dict, dict]:
@@ -154,10 +251,6 @@ def _cmd_eval_photos(args: argparse.Namespace) -> int:
 
 def _suite_table(results: list[dict]) -> str:
     """Markdown table of the suite's means, one row per scenario x estimator x controller."""
-
-    def shown(value: float | None, digits: int) -> str:
-        return "-" if value is None else f"{value:.{digits}f}"
-
     lines = ["| scenario | estimator | controller | RMSE (deg) | max (deg) | lag (frames) | "
              "jerk (deg/s^3) | recovery (s) | mean eta | seeds |", "|" + "---|" * 10]
     for r in results:
@@ -165,16 +258,17 @@ def _suite_table(results: list[dict]) -> str:
         lines.append(
             f"| `{r['scenario']}` | {r['estimator']} | {r['controller']} | "
             f"{m['rmse_deg']:.2f} | {m['max_error_deg']:.1f} | {m['lag_frames']:.1f} | "
-            f"{shown(m['jerk_deg_s3'], 0)} | {shown(m['recovery_s'], 2)} | "
-            f"{shown(m['mean_trust'], 2)} | {r['episodes']} |")
+            f"{_shown(m['jerk_deg_s3'], 0)} | {_shown(m['recovery_s'], 2)} | "
+            f"{_shown(m['mean_trust'], 2)} | {r['episodes']} |")
     return "\n".join(lines)
 
 
 def _suite_configs(args: argparse.Namespace) -> list:
     """The suite's runs: the paper's, or scenarios x controllers x estimators (less the
-    pairs that cannot run, said in one line; one run of the oracle controller)."""
+    combinations that cannot run, said in one line; one run of the oracle controller).
+    Nothing left to run is a user error."""
     from imimic_gym.clips.scenarios import get_scenario
-    from imimic_gym.estimators.registry import get_estimator
+    from imimic_gym.evaluation import cannot_score
     from imimic_gym.paper import paper_configs
     from imimic_gym.suite import RunConfig
 
@@ -186,7 +280,7 @@ def _suite_configs(args: argparse.Namespace) -> list:
         n_links = get_scenario(scenario).n_links
         for controller in args.controller:
             for estimator in args.estimator:
-                if (n_links not in get_estimator(estimator).links
+                if (cannot_score(scenario, estimator, controlled=True)
                         or (n_links != 1 and controller == "learned")):
                     skipped.append(f"{scenario}/{estimator}/{controller}")
                     continue
@@ -194,8 +288,12 @@ def _suite_configs(args: argparse.Namespace) -> list:
                 if controller == "oracle":
                     break  # the oracle controller ignores the estimate: one run is enough
     if skipped:
-        print("skipped (an estimator that does not follow this many links, or the "
-              "learned policy, which follows one): " + ", ".join(skipped))
+        why = ("estimators that cannot follow the scenario's clips, for their links or "
+               "demonstrator, and the learned policy beyond one link")
+        if not configs:
+            raise CommandError(f"imimic eval: nothing to run: {', '.join(skipped)} "
+                               f"cannot run ({why})")
+        print(f"skipped ({why}): " + ", ".join(skipped))
     return configs
 
 
@@ -204,7 +302,7 @@ def _cmd_eval_suite(args: argparse.Namespace, sweep: bool) -> int:
     from imimic_gym.paper import paper_table
     from imimic_gym.plots import plot_tracking
     from imimic_gym.rollout import Trajectory
-    from imimic_gym.suite import run_suite
+    from imimic_gym.suite import iter_suite
 
     configs = _suite_configs(args)
     out = Path(args.out)
@@ -217,6 +315,7 @@ def _cmd_eval_suite(args: argparse.Namespace, sweep: bool) -> int:
                             f"+ {config.controller}")
 
     failed: dict = {}
+    stopped = False
     if sweep:
         from imimic_gym.sweep import Cell
 
@@ -235,7 +334,9 @@ def _cmd_eval_suite(args: argparse.Namespace, sweep: bool) -> int:
                     occlusion=np.asarray(series["occlusion"]),
                     trust=None if trust is None else np.asarray(trust)))
     else:
-        results = run_suite(configs, num_envs=args.num_envs, on_trajectory=plot)
+        results = []
+        stopped = _until_ctrl_c(iter_suite(configs, num_envs=args.num_envs,
+                                           on_trajectory=plot), results)
     table = _suite_table(results)
     if args.paper:
         table = paper_table(results) + "\n\n" + table
@@ -243,7 +344,7 @@ def _cmd_eval_suite(args: argparse.Namespace, sweep: bool) -> int:
     (out / "eval.md").write_text(table + "\n")
     print(f"wrote {out / 'eval.md'} and {len(results)} plots in {out / 'plots'}")
     save_json(args.json, results)
-    return _report_failures(failed, args)
+    return _stopped_by_ctrl_c(len(results)) if stopped else _report_failures(failed, args)
 
 
 def add_eval(sub: argparse._SubParsersAction, names: list[str]) -> None:
@@ -259,19 +360,19 @@ def add_eval(sub: argparse._SubParsersAction, names: list[str]) -> None:
                     "occlusion, mean eta), saves it and Fig. 4-style plots in --out. --paper "
                     "runs the paper's experiments 1-4 against its statements.",
     )
-    evaluate.add_argument("--scenario", nargs="+", default=["exp2-servo"],
-                          choices=names,
-                          help="one or more scenarios (default: %(default)s; DON follows 1 to 3 "
-                               "links, the other estimators one)")
+    evaluate.add_argument("--scenario", nargs="+", default=None, choices=names,
+                          help=f"one or more scenarios (default: {DEFAULTS['scenario'][0]}; "
+                               "DON follows 1 to 3 links, the other estimators one); not with "
+                               "--paper or --photos")
     from imimic_gym.suite import CONTROLLERS
 
-    evaluate.add_argument("--estimator", nargs="+", default=["don"],
+    evaluate.add_argument("--estimator", nargs="+", default=None,
                           choices=estimator_names(),
-                          help="default: %(default)s; oracle (the true angles) only with "
-                               "--controller")
-    evaluate.add_argument("--modality", default="rgb", choices=("rgb", "depth"),
-                          help="the colour video, or the depth video as grey frames "
-                               "(default: %(default)s)")
+                          help=f"default: {DEFAULTS['estimator'][0]}; oracle (the true angles) "
+                               "only with --controller; not with --paper")
+    evaluate.add_argument("--modality", default=None, choices=("rgb", "depth"),
+                          help="estimators alone: the colour video, or the depth video as grey "
+                               f"frames (default: {DEFAULTS['modality']})")
     evaluate.add_argument("--json", default=None, help="also write the results to this file")
     evaluate.add_argument("--photos", default=None, metavar="ANNOTATIONS",
                           help="score on annotated photos instead: a COCO-keypoints file "
@@ -293,9 +394,9 @@ def add_eval(sub: argparse._SubParsersAction, names: list[str]) -> None:
                           help="clips stepped at once through gym.make_vec, one process each "
                                "(default: %(default)s)")
     add_clip_seeds(evaluate)
-    evaluate.add_argument("--out", default="eval_out",
-                          help="suite only: folder for eval.md and plots/ (default: "
-                               "%(default)s)")
+    evaluate.add_argument("--out", default=None,
+                          help="suite only (--controller or --paper): folder for eval.md and "
+                               f"plots/ (default: {DEFAULTS['out']})")
     add_backend(evaluate, "(scenario, estimator, controller, seed) cell; the same numbers "
                           "either way")
     evaluate.add_argument("--results", default=None, metavar="FILE.jsonl",
