@@ -233,12 +233,12 @@ def test_an_output_folder_that_cannot_be_used_is_one_line_before_any_work(comman
                                                                          capsys) -> None:
     (tmp_path / "file").write_text("")
     flag = "--cache-dir" if command == ["cache"] else "--out"
-    for out, problem in ((tmp_path / "file", f"is a file; {flag} names the folder"),
-                         (tmp_path / "file" / "out", "cannot be made: ")):
+    for out, problem in ((tmp_path / "file", " is a file; expected a folder to write"),
+                         (tmp_path / "file" / "out", f": {tmp_path / 'file'} is a file, not a")):
         with pytest.raises(SystemExit) as stop:
             main([*command, flag, str(out)])
         assert stop.value.code == 2
-        assert f"imimic {command[0]}: {flag} {out} {problem}" in capsys.readouterr().err
+        assert f"imimic {command[0]}: {flag} {out}{problem}" in capsys.readouterr().err
 
 
 def test_a_refused_demo_leaves_no_output_folder(tmp_path) -> None:

@@ -15,7 +15,6 @@ from imimic_gym.cli.common import (
     at_least,
     check_writable,
     estimator_names,
-    output_folder,
     print_table,
     save_json,
 )
@@ -47,7 +46,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from imimic_gym.plots import plot_tracking
     from imimic_gym.rollout import run_episode
 
-    out = output_folder(args.out, "demo")
+    check_writable("demo", "--out", args.out, folder=True)
+    out = Path(args.out)
     print(f"imimic demo: scenario {args.scenario}, seed {args.seed}, control {args.control}")
     args.estimator = _demo_estimator(args.estimator, args.scenario)
     kwargs = {"n_frames": args.frames} if args.frames else {}
@@ -99,7 +99,8 @@ def cmd_clip(args: argparse.Namespace) -> int:
     if args.frames:
         overrides["n_frames"] = args.frames
     spec = get_scenario(args.scenario, **overrides)
-    out = output_folder(args.out, "clip")
+    check_writable("clip", "--out", args.out, folder=True)
+    out = Path(args.out)
     clip = load_clip(spec)
     out.mkdir(parents=True, exist_ok=True)
     stem = out / f"{args.scenario}-seed{args.seed}"

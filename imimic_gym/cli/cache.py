@@ -11,7 +11,7 @@ from imimic_gym.cli.common import (
     add_backend,
     add_clip_seeds,
     check_backend,
-    output_folder,
+    check_writable,
 )
 
 
@@ -19,7 +19,7 @@ def cmd_cache(args: argparse.Namespace) -> int:
     from imimic_gym.clips.cache import cache_limit_bytes, cache_usage, clear_cache
 
     if args.cache_dir:
-        output_folder(args.cache_dir, "cache", "--cache-dir")
+        check_writable("cache", "--cache-dir", args.cache_dir, folder=True)
         os.environ["IMIMIC_CACHE_DIR"] = args.cache_dir  # here and on the Ray workers
     try:
         limit = cache_limit_bytes()

@@ -77,26 +77,6 @@ def estimator_names(video_only: bool = False) -> tuple[str, ...]:
                  if not (video_only and entry.needs_truth))
 
 
-def output_folder(path: str | Path, command: str, flag: str = "--out") -> Path:
-    """``path`` as an output folder, checked before any work is done: it is a folder or
-    can be made as one (its nearest existing parent is a writable folder). Nothing is
-    created here. `CommandError` naming ``flag`` otherwise."""
-    folder = Path(path)
-    if folder.exists() and not folder.is_dir():
-        raise CommandError(f"imimic {command}: {flag} {folder} is a file; {flag} names the "
-                           f"folder the outputs go in")
-    parent = folder
-    while not parent.exists():
-        parent = parent.parent
-    if not parent.is_dir():
-        raise CommandError(f"imimic {command}: {flag} {folder} cannot be made: {parent} is "
-                           f"a file")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise CommandError(f"imimic {command}: {flag} {folder} cannot be written: {parent} "
-                           f"is not writable")
-    return folder
-
-
 def save_json(path: str | None, data: object) -> None:
     """Write ``data`` as JSON to ``path`` (folders made as needed); nothing if no path."""
     if path:

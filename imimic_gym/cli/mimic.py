@@ -11,9 +11,9 @@ from typing import cast
 from imimic_gym.cli.common import (
     CommandError,
     at_least,
+    check_writable,
     estimator_names,
     finite,
-    output_folder,
     positive,
     print_table,
     unit_interval,
@@ -53,7 +53,7 @@ def cmd_mimic(args: argparse.Namespace) -> int:
     if args.camera is not None and not (args.camera.isdigit() or "://" in args.camera):
         raise CommandError(f"imimic mimic: --camera takes a camera index (0, 1, ...) or a "
                            f"stream URL (rtsp://...), got {args.camera!r}")
-    output_folder(args.out, "mimic")
+    check_writable("mimic", "--out", args.out, folder=True)
     try:
         return _mimic(args)
     except (VideoOpenError, VideoFormatError) as err:
@@ -129,7 +129,7 @@ def cmd_label(args: argparse.Namespace) -> int:
     from imimic_gym.clips.video import VideoFormatError, VideoOpenError
     from imimic_gym.labels import label_video
 
-    output_folder(args.out, "label")
+    check_writable("label", "--out", args.out, folder=True)
     try:
         summary = label_video(args.video, args.out, arm=args.arm,
                               min_confidence=args.min_confidence, fps=args.fps)
