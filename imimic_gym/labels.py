@@ -24,6 +24,7 @@ import cv2
 import numpy as np
 
 from imimic_gym.clips.annotations import ARM_KEYPOINTS
+from imimic_gym.interrupts import CTRL_C, is_ctrl_c
 
 __all__ = ["PoseLabels", "label_frames", "label_video", "video_labels"]
 
@@ -184,8 +185,8 @@ def label_video(source: str | Path, out: str | Path, arm: str = "auto",
                                "height": int(frame.shape[0]), "frame_index": i})
                 readings.append(reading)
                 bar.update(1)
-    except KeyboardInterrupt:
-        if not readings:
+    except CTRL_C as error:
+        if not (readings and is_ctrl_c(error)):
             raise
         ended = "stopped by Ctrl-C"
         del images[len(readings):]  # an image whose reading Ctrl-C cut off

@@ -42,6 +42,7 @@ from imimic_gym.clips.video import require_frames
 from imimic_gym.clips.video_writer import write_video
 from imimic_gym.envs.imitate_video import imitate_env
 from imimic_gym.estimators.registry import get_estimator
+from imimic_gym.interrupts import CTRL_C, is_ctrl_c
 from imimic_gym.rollout import Observer, Step, Trajectory, episode
 from imimic_gym.wrappers import EstimatorObservation, RegistryObservation
 
@@ -275,7 +276,9 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
             write_behind(out / "mimic.mp4",
                          mimic_frames(env, controller, log, rows, servo, [show], realtime),
                          clip.fps)
-        except KeyboardInterrupt:
+        except CTRL_C as error:
+            if not is_ctrl_c(error):
+                raise
             ended = "stopped by Ctrl-C"
         finally:
             wall = time.perf_counter() - started

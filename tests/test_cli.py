@@ -318,7 +318,7 @@ def test_ctrl_c_inside_a_compiled_call_counts_as_ctrl_c() -> None:
     """Ctrl-C during DON's numba loops reaches Python as SystemError("... returned a result
     with an exception set"), once per compiled call it interrupts, over the
     KeyboardInterrupt; any other SystemError is a bug."""
-    from imimic_gym.cli.evaluate import _ctrl_c
+    from imimic_gym.interrupts import is_ctrl_c
 
     def raised(cause: BaseException, layers: int) -> BaseException:
         error = cause
@@ -328,8 +328,8 @@ def test_ctrl_c_inside_a_compiled_call_counts_as_ctrl_c() -> None:
             error = wrapper
         return error
 
-    assert _ctrl_c(raised(KeyboardInterrupt(), 0)) and _ctrl_c(raised(KeyboardInterrupt(), 2))
-    assert not _ctrl_c(raised(ValueError(), 1)) and not _ctrl_c(SystemError("a bug"))
+    assert is_ctrl_c(raised(KeyboardInterrupt(), 0)) and is_ctrl_c(raised(KeyboardInterrupt(), 2))
+    assert not is_ctrl_c(raised(ValueError(), 1)) and not is_ctrl_c(SystemError("a bug"))
 
 
 def test_a_bad_cache_bound_is_one_line(tmp_path, capsys, monkeypatch) -> None:

@@ -20,6 +20,7 @@ from imimic_gym.cli.common import (
 )
 from imimic_gym.cli.evaluate import add_eval
 from imimic_gym.cli.mimic import add_label, add_mimic
+from imimic_gym.interrupts import CTRL_C, is_ctrl_c
 
 
 def _demo_estimator(requested: str | None, scenario: str) -> str:
@@ -290,7 +291,9 @@ def main(argv: list[str] | None = None) -> int:
     except CacheSettingError as error:
         print(f"imimic {args.command}: {error}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:  # commands that keep partial work catch it themselves
+    except CTRL_C as error:  # commands that keep partial work catch it themselves
+        if not is_ctrl_c(error):
+            raise
         print(f"imimic {args.command}: stopped by Ctrl-C", file=sys.stderr)
         return 130
 

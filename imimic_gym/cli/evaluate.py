@@ -20,6 +20,7 @@ from imimic_gym.cli.common import (
     estimator_names,
     save_json,
 )
+from imimic_gym.interrupts import CTRL_C, is_ctrl_c
 
 # The defaults of the options one mode takes and another refuses: None in argparse, so
 # that an option the user gave is told from one left out.
@@ -82,8 +83,8 @@ def _score_alone(args: argparse.Namespace) -> tuple[list[dict], bool]:
                 row = evaluate_clip(*pair, seed, args.modality, args.frames)
                 rows.setdefault(pair, []).append(row)
             _print_estimator_result(result(pair))
-    except (KeyboardInterrupt, SystemError) as error:
-        if not _ctrl_c(error):
+    except CTRL_C as error:
+        if not is_ctrl_c(error):
             raise
         unfinished = [pair for pair in rows if len(rows[pair]) < args.episodes]
         for pair in unfinished:
@@ -97,20 +98,11 @@ def _until_ctrl_c(items: Iterable, into: list) -> bool:
     try:
         for item in items:
             into.append(item)
-    except (KeyboardInterrupt, SystemError) as error:
-        if not _ctrl_c(error):
+    except CTRL_C as error:
+        if not is_ctrl_c(error):
             raise
         return True
     return False
-
-
-def _ctrl_c(error: BaseException | None) -> bool:
-    """Whether ``error`` is Ctrl-C: a KeyboardInterrupt, or the SystemError ("returned a
-    result with an exception set") that Python raises over one, once per compiled call
-    it interrupts (DON's numba loops)."""
-    while isinstance(error, SystemError):
-        error = error.__cause__
-    return isinstance(error, KeyboardInterrupt)
 
 
 def _stopped_by_ctrl_c(finished: int) -> int:
