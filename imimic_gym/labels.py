@@ -14,6 +14,7 @@ import hashlib
 import json
 import os
 import tempfile
+import warnings
 import zipfile
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
@@ -87,12 +88,16 @@ def label_frames(frames: Iterable[np.ndarray], fps: float, arm: str = "auto",
     return _labels(readings, min_confidence)
 
 
-LABELS_VERSION = 1  # of the cached labels' layout and of how they are made
+# Of the cached labels' layout and of how they are made: bump it when a change to the
+# pose estimator (estimators/pose.py, pose_model.py) changes its readings.
+LABELS_VERSION = 1
+POSE_LABELS = "pose-labels"  # the clip cache's subfolder of `video_labels` files
 
 
 def _cached_labels_path(source: str | Path, n_frames: int, fps: float, arm: str,
                         min_confidence: float) -> Path | None:
-    """Where `video_labels` keeps a file's labels: named by a hash of the file (path,
+    """Where `video_labels` keeps a file's labels (in the clip cache's `POSE_LABELS`
+    folder, which ``imimic cache --clear`` empties too): named by a hash of the file (path,
     size, modification time), the frames read, the settings and the pose model's version.
     None for a source that is no single file (an image pattern)."""
     from imimic_gym.clips.cache import cache_dir
@@ -104,7 +109,7 @@ def _cached_labels_path(source: str | Path, n_frames: int, fps: float, arm: str,
     stat = path.stat()
     key = json.dumps([str(path.resolve()), stat.st_size, stat.st_mtime_ns, n_frames, fps, arm,
                       min_confidence, MEDIAPIPE_VERSION, LABELS_VERSION])
-    return cache_dir() / f"pose-labels-{hashlib.sha256(key.encode()).hexdigest()[:32]}.npz"
+    return cache_dir() / POSE_LABELS / f"{hashlib.sha256(key.encode()).hexdigest()[:32]}.npz"
 
 
 def video_labels(source: str | Path, frames: np.ndarray, fps: float, arm: str = "auto",
@@ -113,7 +118,10 @@ def video_labels(source: str | Path, frames: np.ndarray, fps: float, arm: str = 
     file ``source``, kept in the clip cache (`clips.cache.cache_dir`), so that the env
     made again on the same file (a copy, an unpickled env, each worker of a vector env)
     reads them rather than running the pose model over the video again. A cached file
-    that cannot be read is labelled anew. ``progress``: a progress bar while labelling."""
+    that cannot be read is labelled anew; one that cannot be written is warned of. A file
+    replaced by another of the same size and modification time (``cp -p``) would read
+    the old labels: ``imimic cache --clear`` forgets them. ``progress``: a progress bar
+    while labelling."""
     from tqdm.auto import tqdm
 
     cached = _cached_labels_path(source, len(frames), fps, arm, min_confidence)
@@ -131,17 +139,27 @@ def video_labels(source: str | Path, frames: np.ndarray, fps: float, arm: str = 
         labels = label_frames(frames, fps, arm=arm, min_confidence=min_confidence,
                               on_frame=lambda i, frame: bar.update(1))
     if cached is not None:
-        cached.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=cached.parent, prefix=cached.stem, suffix=".tmp")
         try:
-            with os.fdopen(fd, "wb") as f:
-                np.savez(f, keypoints=labels.keypoints, confidence=labels.confidence,
-                         labelled=labels.labelled, side=np.array(labels.side, dtype=str))
-            os.replace(tmp, cached)  # readers never see half a file
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+            _write_labels(cached, labels)
+        except OSError as error:  # the cache only saves time: the labels are still good
+            warnings.warn(f"pose labels of {source} not cached in {cached.parent}: {error}",
+                          RuntimeWarning, stacklevel=2)
     return labels
+
+
+def _write_labels(path: Path, labels: PoseLabels) -> None:
+    """``labels`` into ``path`` through a temporary file, so readers never see half a file
+    (vector-env workers may write the same labels at once)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.stem, suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            np.savez(f, keypoints=labels.keypoints, confidence=labels.confidence,
+                     labelled=labels.labelled, side=np.array(labels.side, dtype=str))
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
 
 
 def label_video(source: str | Path, out: str | Path, arm: str = "auto",
@@ -193,9 +211,12 @@ def label_video(source: str | Path, out: str | Path, arm: str = "auto",
     finally:
         reader.close()
     labels = _labels(readings, min_confidence)
-    if ended == "end of footage" and reported is not None and len(readings) < reported:
+    skipped = reader.skipped_frames
+    if (ended == "end of footage" and reported is not None
+            and len(readings) + skipped < reported):
         ended = (f"footage ended early: {len(readings)} of the {reported} frames its "
-                 f"container reports (a truncated or damaged file?)")
+                 f"container reports{f' ({skipped} more failed to decode)' if skipped else ''}"
+                 f" (a truncated or damaged file?)")
     annotations: list[dict[str, Any]] = []
     for k in np.flatnonzero(labels.labelled):
         points = labels.keypoints[k].astype(np.float64)

@@ -289,13 +289,16 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
             if servo is not None:
                 servo.close()
     frames = len(log.time)
+    skipped = int(getattr(getattr(clip.frames, "reader", None), "skipped_frames", 0))
     stopped = ended != "end of footage"  # by Ctrl-C: too few frames is then no error
     if not stopped and frames:
         if live and frames < len(clip):
             ended = "camera stopped"
-        elif known_length and frames < len(clip):
-            ended = (f"footage ended early: {frames} of the {len(clip)} frames its container "
-                     f"reports (a truncated or damaged file?)")
+        elif known_length and frames + skipped < len(clip):
+            ended = (f"footage ended early: {frames} of the {len(clip)} frames "
+                     f"{'asked for' if cut_short else 'its container reports'}"
+                     f"{f' ({skipped} more failed to decode)' if skipped else ''} "
+                     f"(a truncated or damaged file?)")
         elif cut_short:
             ended = f"stopped at the {len(clip)} frames asked for"
     if frames:
@@ -316,8 +319,7 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
         "mean_trust": float(np.mean(log.trust)) if frames else 0.0,
         "frames_without_reading": int(np.sum(np.asarray(log.trust) == 0.0)),
         "predicted_fraction": float(np.mean(log.predicted)) if frames else 0.0,
-        "skipped_frames": int(getattr(getattr(clip.frames, "reader", None),
-                                      "skipped_frames", 0)),
+        "skipped_frames": skipped,
         "ended": ended,
     }
     if servo is not None:

@@ -212,8 +212,6 @@ def test_scenarios_lists_every_scenario(capsys) -> None:
      "--reference-direction: expected a finite number, got nan"),
     (["mimic", "--video", "x.mp4", "--pivot", "inf", "5"],
      "--pivot: expected a finite number, got inf"),
-    (["mimic", "--video", "x.mp4", "--servo-zero", "500"],
-     "--servo-zero 500 lies outside --servo-range 0 120"),
     (["label", "--video", "x.mp4", "--min-confidence", "1.5"],
      "--min-confidence: expected a number from 0 to 1, got 1.5"),
 ])
@@ -228,11 +226,11 @@ def test_a_users_mistake_is_one_line_and_exit_code_2(argv, message, capsys) -> N
 
 @pytest.mark.parametrize("command", [["demo", "--frames", "5"], ["clip", "--frames", "5"],
                                      ["mimic", "--video", "x.mp4"], ["label", "--video", "x.mp4"],
-                                     ["cache"]])
+                                     ["cache", "--clear"]])
 def test_an_output_folder_that_cannot_be_used_is_one_line_before_any_work(command, tmp_path,
                                                                          capsys) -> None:
     (tmp_path / "file").write_text("")
-    flag = "--cache-dir" if command == ["cache"] else "--out"
+    flag = "--cache-dir" if command[0] == "cache" else "--out"
     for out, problem in ((tmp_path / "file", " is a file; expected a folder to write"),
                          (tmp_path / "file" / "out", f": {tmp_path / 'file'} is a file, not a")):
         with pytest.raises(SystemExit) as stop:
@@ -355,3 +353,20 @@ def test_version_names_the_package(capsys) -> None:
         main(["--version"])
     assert stop.value.code == 0
     assert capsys.readouterr().out.strip() == f"imimic_gym {imimic_gym.__version__}"
+
+
+def test_ctrl_c_before_any_result_leaves_an_earlier_json_alone(tmp_path, monkeypatch,
+                                                               capsys) -> None:
+    import imimic_gym.evaluation as evaluation
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(evaluation, "evaluate_clip", interrupted)
+    earlier = tmp_path / "earlier.json"
+    earlier.write_text('[{"earlier": "run"}]\n')
+    assert main(["eval", "--scenario", "exp2-servo", "--episodes", "1", "--frames", "20",
+                 "--json", str(earlier)]) == 130
+    assert earlier.read_text() == '[{"earlier": "run"}]\n'
+    assert "kept the 0 results" in capsys.readouterr().err
+

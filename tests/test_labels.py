@@ -93,11 +93,21 @@ def test_pose_labels_are_made_once_per_file(person_video, monkeypatch) -> None:
     assert runs == []
     np.testing.assert_array_equal(twin.unwrapped.clip.truth.angles,
                                   env.unwrapped.clip.truth.angles)
-    for cached in Path(os.environ["IMIMIC_CACHE_DIR"]).glob("pose-labels-*.npz"):
+    kept = list(Path(os.environ["IMIMIC_CACHE_DIR"]).glob("pose-labels/*.npz"))
+    assert kept
+    for cached in kept:
         cached.write_bytes(b"damaged")
     relabelled = gym.make("ImitateVideo-v0", clip=str(video), annotations="pose")
     assert runs == [1]
     np.testing.assert_array_equal(relabelled.unwrapped.clip.truth.angles,
+                                  env.unwrapped.clip.truth.angles)
+    # A cache that cannot be written costs the time, not the labels.
+    (Path(os.environ["IMIMIC_CACHE_DIR"]).parent / "a_file").write_text("")
+    monkeypatch.setenv("IMIMIC_CACHE_DIR",
+                       str(Path(os.environ["IMIMIC_CACHE_DIR"]).parent / "a_file" / "cache"))
+    with pytest.warns(RuntimeWarning, match="pose labels of .* not cached"):
+        uncached = gym.make("ImitateVideo-v0", clip=str(video), annotations="pose")
+    np.testing.assert_array_equal(uncached.unwrapped.clip.truth.angles,
                                   env.unwrapped.clip.truth.angles)
 
 
@@ -144,3 +154,7 @@ def test_ctrl_c_while_labelling_keeps_the_frames_read(person_video, tmp_path,
     assert summary["ended"] == "stopped by Ctrl-C" and summary["frames"] == 4
     coco = json.loads((tmp_path / "out" / "labels.json").read_text())
     assert [image["frame_index"] for image in coco["images"]] == [0, 1, 2, 3]
+    # On the command line: the labels kept, and no success for a following `&&`.
+    calls.clear()
+    assert main(["label", "--video", str(person_video[1]), "--out", str(tmp_path / "cli")]) == 130
+    assert len(json.loads((tmp_path / "cli" / "labels.json").read_text())["images"]) == 4

@@ -84,6 +84,14 @@ def test_a_file_holding_fewer_frames_than_it_reports_says_so(truncated_avi,
     assert summary["ended"].startswith(f"footage ended early: {summary['frames']} of the 30 ")
 
 
+def test_a_cut_run_that_ends_early_counts_the_frames_asked_for(truncated_avi,
+                                                                tmp_path) -> None:
+    summary = run_mimic(stream_video(truncated_avi, max_frames=20), tmp_path / "out",
+                        progress=False)
+    assert summary["ended"].startswith(f"footage ended early: {summary['frames']} of the 20 "
+                                       "frames asked for")
+
+
 def test_a_run_cut_to_a_length_says_so(servo_mp4, tmp_path) -> None:
     clip = stream_video(servo_mp4, max_frames=20)
     summary = run_mimic(clip, tmp_path / "out", progress=False)

@@ -184,6 +184,7 @@ def _bench_don(args: argparse.Namespace, result: dict[str, Any]) -> int:
               f"{row['ratio_mog2_paper']:10.2f}")
     print("  (paper: DON with the paper's layers only, without the appearance layer)")
     print("time against N and detected area against light (paper Fig. 3)...")
+    Path(prefix).parent.mkdir(parents=True, exist_ok=True)  # checked above: it can be made
     result["figure3"] = don_window_and_lighting(prefix)
     print(f"  wrote {prefix}_window.png and {prefix}_lighting.png")
     save_json(args.json, result)

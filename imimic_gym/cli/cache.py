@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from pathlib import Path
 
 from imimic_gym.cli.common import (
     CommandError,
@@ -18,8 +19,11 @@ from imimic_gym.cli.common import (
 def cmd_cache(args: argparse.Namespace) -> int:
     from imimic_gym.clips.cache import cache_limit_bytes, cache_usage, clear_cache
 
-    if args.cache_dir:
+    if args.cache_dir and (args.clear or args.warm):
         check_writable("cache", "--cache-dir", args.cache_dir, folder=True)
+    elif args.cache_dir and Path(args.cache_dir).is_file():  # a read-only cache shows fine
+        raise CommandError(f"imimic cache: --cache-dir {args.cache_dir} is a file; expected "
+                           f"the cache's folder")
         os.environ["IMIMIC_CACHE_DIR"] = args.cache_dir  # here and on the Ray workers
     try:
         limit = cache_limit_bytes()

@@ -62,7 +62,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
         save_json(args.json, results)
         return _report_failures(failed, args)
     results, stopped = _score_alone(args)
-    save_json(args.json, results)
+    if results or not stopped:  # a Ctrl-C before any result leaves earlier files alone
+        save_json(args.json, results)
     return _stopped_by_ctrl_c(len(results)) if stopped else 0
 
 
@@ -329,6 +330,8 @@ def _cmd_eval_suite(args: argparse.Namespace, sweep: bool) -> int:
         results = []
         stopped = _until_ctrl_c(iter_suite(configs, num_envs=args.num_envs,
                                            on_trajectory=plot), results)
+    if stopped and not results:  # nothing finished: earlier files are left alone
+        return _stopped_by_ctrl_c(0)
     table = _suite_table(results)
     if args.paper:
         table = paper_table(results) + "\n\n" + table

@@ -37,10 +37,6 @@ def cmd_mimic(args: argparse.Namespace) -> int:
         if pair is not None and not pair[0] < pair[1]:
             raise CommandError(f"imimic mimic: {option} takes LOW HIGH in degrees with LOW < "
                              f"HIGH, got {pair[0]:g} {pair[1]:g}")
-    low, high = args.servo_range
-    if not low <= args.servo_zero <= high:
-        raise CommandError(f"imimic mimic: --servo-zero {args.servo_zero:g} lies outside "
-                           f"--servo-range {low:g} {high:g}")
     if args.preview_height < 0:
         raise CommandError(f"imimic mimic: --preview-height takes 0 (the footage's size) or a "
                          f"positive number of rows, got {args.preview_height}")
@@ -50,9 +46,11 @@ def cmd_mimic(args: argparse.Namespace) -> int:
     if args.links not in entry.links:
         raise CommandError(f"imimic mimic: {args.estimator} follows {entry.links_text}; "
                          f"--links {args.links}")
-    if args.camera is not None and not (args.camera.isdigit() or "://" in args.camera):
+    if args.camera is not None and not (args.camera.isdigit() or "://" in args.camera
+                                        or Path(args.camera).exists()):
         raise CommandError(f"imimic mimic: --camera takes a camera index (0, 1, ...) or a "
-                           f"stream URL (rtsp://...), got {args.camera!r}")
+                           f"stream URL (rtsp://...) or a device (/dev/video0), got "
+                           f"{args.camera!r}")
     check_writable("mimic", "--out", args.out, folder=True)
     try:
         return _mimic(args)
@@ -141,7 +139,8 @@ def cmd_label(args: argparse.Namespace) -> int:
     print(f"labelled {summary['labelled']} of {summary['frames']} frames: wrote "
           f"{summary['labels']} and {summary['images']}/ (train: python training/train_cnn.py "
           f"--annotations {summary['labels']} --images {summary['images']})")
-    return 0
+    # Stopped early, the labels are partial: not the success a following command expects.
+    return 130 if summary["ended"] == "stopped by Ctrl-C" else 0
 
 
 def add_label(sub: argparse._SubParsersAction) -> None:

@@ -119,7 +119,11 @@ def prune_cache(limit_bytes: float, keep: Path | None = None) -> int:
 
 
 def clear_cache() -> int:
-    """Delete every cached clip (the rendered dataset images are kept). Returns how many."""
+    """Delete every cached clip, and the pose model's labels of videos kept beside them
+    (``pose-labels/``, `labels.video_labels`); the rendered dataset images are kept.
+    Returns how many clips were deleted."""
+    for labels in (cache_dir() / "pose-labels").glob("*.npz"):
+        labels.unlink(missing_ok=True)
     return prune_cache(0.0)
 
 

@@ -99,7 +99,12 @@ def test_a_bound_smaller_than_one_clip_still_keeps_the_clip_just_written(
     _cached(range(50, 52))
     assert cache.cache_usage().clips == 1
     assert cache.cache_path(SPEC.replace(seed=51)).exists()
+    labels = tmp_path / "tiny" / "pose-labels" / "0123.npz"  # a video's pose labels
+    labels.parent.mkdir()
+    labels.write_bytes(b"labels")
+    assert cache.cache_usage().clips == 1  # labels are no clip
     assert cache.clear_cache() == 1 and cache.cache_usage().clips == 0
+    assert not labels.exists()
 
 
 @pytest.mark.parametrize("setting", ["0", "-3", "many", "nan"])
