@@ -91,16 +91,15 @@ def label_frames(frames: Iterable[np.ndarray], fps: float, arm: str = "auto",
 # Of the cached labels' layout and of how they are made: bump it when a change to the
 # pose estimator (estimators/pose.py, pose_model.py) changes its readings.
 LABELS_VERSION = 1
-POSE_LABELS = "pose-labels"  # the clip cache's subfolder of `video_labels` files
 
 
 def _cached_labels_path(source: str | Path, n_frames: int, fps: float, arm: str,
                         min_confidence: float) -> Path | None:
-    """Where `video_labels` keeps a file's labels (in the clip cache's `POSE_LABELS`
-    folder, which ``imimic cache --clear`` empties too): named by a hash of the file (path,
+    """Where `video_labels` keeps a file's labels (in `clips.cache.pose_labels_dir`,
+    which ``imimic cache --clear`` empties too): named by a hash of the file (path,
     size, modification time), the frames read, the settings and the pose model's version.
     None for a source that is no single file (an image pattern)."""
-    from imimic_gym.clips.cache import cache_dir
+    from imimic_gym.clips.cache import pose_labels_dir
     from imimic_gym.estimators.pose_model import MEDIAPIPE_VERSION
 
     path = Path(source)
@@ -109,7 +108,7 @@ def _cached_labels_path(source: str | Path, n_frames: int, fps: float, arm: str,
     stat = path.stat()
     key = json.dumps([str(path.resolve()), stat.st_size, stat.st_mtime_ns, n_frames, fps, arm,
                       min_confidence, MEDIAPIPE_VERSION, LABELS_VERSION])
-    return cache_dir() / POSE_LABELS / f"{hashlib.sha256(key.encode()).hexdigest()[:32]}.npz"
+    return pose_labels_dir() / f"{hashlib.sha256(key.encode()).hexdigest()[:32]}.npz"
 
 
 def video_labels(source: str | Path, frames: np.ndarray, fps: float, arm: str = "auto",

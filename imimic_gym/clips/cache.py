@@ -35,7 +35,8 @@ from imimic_gym.clips.synthetic import render_clip
 from imimic_gym.clips.types import Clip, ClipTruth, depth_from_mm, depth_to_mm
 
 __all__ = ["CacheSettingError", "CacheUsage", "cache_dir", "cache_limit_bytes", "cache_path",
-           "cache_usage", "check_warmed", "clear_cache", "load_clip", "prune_cache", "warm_clip"]
+           "cache_usage", "check_warmed", "clear_cache", "load_clip", "pose_labels_dir",
+           "prune_cache", "warm_clip"]
 
 FORMAT_VERSION = 2  # 2: depth stored as whole millimetres (uint16)
 DEFAULT_MAX_GB = 20.0
@@ -47,6 +48,11 @@ def cache_dir() -> Path:
         return Path(os.environ["IMIMIC_CACHE_DIR"])
     base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
     return Path(base) / "imimic_gym" / "clips"
+
+
+def pose_labels_dir() -> Path:
+    """The cache's folder of the pose model's labels of videos (`labels.video_labels`)."""
+    return cache_dir() / "pose-labels"
 
 
 def cache_path(spec: ClipSpec) -> Path:
@@ -120,9 +126,9 @@ def prune_cache(limit_bytes: float, keep: Path | None = None) -> int:
 
 def clear_cache() -> int:
     """Delete every cached clip, and the pose model's labels of videos kept beside them
-    (``pose-labels/``, `labels.video_labels`); the rendered dataset images are kept.
+    (`pose_labels_dir`); the rendered dataset images are kept.
     Returns how many clips were deleted."""
-    for labels in (cache_dir() / "pose-labels").glob("*.npz"):
+    for labels in pose_labels_dir().glob("*.npz"):
         labels.unlink(missing_ok=True)
     return prune_cache(0.0)
 
