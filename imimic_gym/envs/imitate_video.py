@@ -14,7 +14,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import EzPickle
 
-from imimic_gym.arms import ArmSpec, Control, build_arm_model
+from imimic_gym.arms import Control, build_arm_model
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import ClipSpec, get_scenario, robot_for_clip
 from imimic_gym.clips.types import Clip, depth_to_frame
@@ -184,7 +184,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
                                  f"from {scenario.meta.get('path')}: leave them None")
             self._fixed_clip = scenario.resized(height, width)
             self.clip_seeds: tuple[int, ...] = (int(scenario.meta.get("seed", 0)),)
-            arm = robot_for_clip(scenario, control)
+            arm = self._robot_for_clip(scenario, control)
         else:
             overrides = {k: v for k, v in (("n_links", n_links), ("width", width),
                          ("height", height), ("n_frames", n_frames)) if v is not None}
@@ -192,8 +192,8 @@ class ImitateVideoEnv(gym.Env, EzPickle):
             self.clip_seeds = tuple(int(s) for s in clip_seeds)
             if not self.clip_seeds:
                 raise ValueError("clip_seeds must name at least one seed, got an empty sequence")
-            arm = self._spec.robot_arm(control)
-        self.arm: ArmSpec = arm
+            arm = self._robot_for_spec(self._spec, control)
+        self.arm = arm
         self.clip = self._load(self.clip_seeds[0])
         fps = self.clip.fps
         if len(self.clip) < 2:
@@ -206,7 +206,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
                              f"frame and takes {MIN_FPS:g} to {MAX_FPS:g} (give the video's "
                              "real rate: stream_video/load_video(fps=...), --fps)")
 
-        self.model = build_arm_model(arm)
+        self.model = self._build_model(arm)
         self.n_substeps = max(1, math.ceil(1.0 / fps / MAX_PHYSICS_STEP))
         self.model.opt.timestep = 1.0 / fps / self.n_substeps
         self.data = mujoco.MjData(self.model)
@@ -217,6 +217,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         self.metadata = {**self.metadata, "render_fps": fps}
 
         n = arm.n_links
+        self._targets = self._clip_targets(self.clip)
         h, w = self.clip.height, self.clip.width
         self.action_space = spaces.Box(-1.0, 1.0, shape=(n,), dtype=np.float32)
         self.observation_space = spaces.Dict({
@@ -230,6 +231,23 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         self._last_frame = len(self.clip) - 1
         self._frames = self._observed_frames(self.clip)
         self._renderer: OffscreenRenderer | None = None
+
+    # The robot and its targets: what ImitateVideo3D-v0 replaces -----------------------
+    def _robot_for_clip(self, clip: Clip, control: Control) -> Any:
+        """The robot for a given clip (a recorded video): `robot_for_clip`."""
+        return robot_for_clip(clip, control)
+
+    def _robot_for_spec(self, spec: ClipSpec, control: Control) -> Any:
+        """The robot for a scenario's clips: the demonstrator's arm (`ClipSpec.robot_arm`)."""
+        return spec.robot_arm(control)
+
+    def _build_model(self, arm: Any) -> mujoco.MjModel:
+        return build_arm_model(arm)
+
+    def _clip_targets(self, clip: Clip) -> np.ndarray | None:
+        """(T, n) rad: the joint angles the robot should have in each frame of ``clip``
+        (here the truth's own), None without truth."""
+        return clip.truth.angles if clip.truth is not None else None
 
     # Clips ---------------------------------------------------------------------------
     def _load(self, seed: int) -> Clip:
@@ -268,11 +286,11 @@ class ImitateVideoEnv(gym.Env, EzPickle):
     def target_angles(self, frame_index: int) -> np.ndarray:
         """The demonstrator's true joint angles (rad) at ``frame_index`` (clamped to the
         clip). Raises ValueError for a clip without truth."""
-        if self.clip.truth is None:
+        if self._targets is None:
             raise ValueError(f"clip {self.clip.meta.get('path', self.clip.meta)} has no ground "
                              "truth: no target angles (load it with annotations)")
         i = min(max(frame_index, 0), len(self.clip) - 1)
-        return self.clip.truth.angles[i].copy()
+        return self._targets[i].copy()
 
     def estimator_context(self) -> EstimatorContext:
         """What an estimator may know about the current clip and this robot: the seam
@@ -309,9 +327,9 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         """The demonstrator's angles in the current frame and the robot's wrapped error;
         None without truth."""
         assert self.frame_index is not None
-        if self.clip.truth is None:
+        if self._targets is None:
             return None
-        target = self.clip.truth.angles[self.frame_index]
+        target = self._targets[self.frame_index]
         return target, wrap_angle(self.data.qpos - target)
 
     def _info(self, tracking: tuple[np.ndarray, np.ndarray] | None) -> dict[str, Any]:
@@ -343,9 +361,9 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         clip = self._load(clip_seed)
         if clip is not self.clip:
             self.clip, self._frames = clip, self._observed_frames(clip)
+            self._targets = self._clip_targets(clip)
         mujoco.mj_resetData(self.model, self.data)
-        truth = self.clip.truth
-        start = truth.angles[0] if truth is not None else np.mean(
+        start = self._targets[0] if self._targets is not None else np.mean(
             [self._joint_low, self._joint_high], axis=0)
         scale = self.reset_noise_scale
         noise = self.np_random.uniform(-scale, scale, size=start.shape)
@@ -388,13 +406,18 @@ class ImitateVideoEnv(gym.Env, EzPickle):
 
         tracking = self._tracking()
         info = self._info(tracking)
-        reward_tracking = 0.0
-        if tracking is not None:
-            reward_tracking = -self.tracking_weight * float(tracking[1] @ tracking[1])
+        reward_tracking = self._tracking_reward(tracking, info)
         reward_ctrl = -self.ctrl_cost_weight * float(a @ a)
         info["reward_tracking"], info["reward_ctrl"] = reward_tracking, reward_ctrl
         truncated = self.frame_index == self._last_frame
         return self._obs(), reward_tracking + reward_ctrl, False, truncated, info
+
+    def _tracking_reward(self, tracking: tuple[np.ndarray, np.ndarray] | None,
+                         info: dict[str, Any]) -> float:
+        """``-tracking_weight * sum_i wrap(q_i - q*_i)^2``; 0 without truth."""
+        if tracking is None:
+            return 0.0
+        return -self.tracking_weight * float(tracking[1] @ tracking[1])
 
     def render(self) -> np.ndarray | None:
         """(H, 2W, 3) uint8: the video frame (left) beside the robot (right), same size;
