@@ -5,6 +5,7 @@ the whole PATH: each reports a version when asked with ``-c`` (as the picker ask
 every call to a log, and fails anything else, so that no real interpreter or pip can run.
 """
 
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -186,3 +187,14 @@ def test_make_python_is_overridden_by_the_command_line(fakes: FakePythons) -> No
     python310 = fakes.add("python3.10", "3.10")
 
     assert make(fakes, "python", "PYTHON=python3.10").stdout == f"{python310}\n"
+
+
+def test_pyproject_and_readme_name_the_pythons_the_picker_takes() -> None:
+    pyproject = (ROOT / "pyproject.toml").read_text()
+    classified = re.findall(r'"Programming Language :: Python :: (3\.\d+)"', pyproject)
+    assert classified == ["3.10", "3.11", "3.12"]
+    pose_extra = re.search(r"^pose = \[(.*?)\]$", pyproject, re.M | re.S)
+    assert pose_extra is not None
+    requirements = re.findall(r'"([^"]+)"', pose_extra.group(1))
+    assert requirements and all(r.endswith("; python_version < '3.13'") for r in requirements)
+    assert "Both need only Python 3.10, 3.11 or 3.12" in (ROOT / "README.md").read_text()
