@@ -11,6 +11,7 @@ how it is installed beside our numpy and OpenCV: `docs/decisions/pose-model.md`.
 from __future__ import annotations
 
 import math
+import sys
 import warnings
 from dataclasses import dataclass
 from typing import Any
@@ -76,8 +77,10 @@ def _solution() -> Any:
     try:
         from mediapipe.python.solutions import pose
     except ImportError as error:
+        running = f"{sys.version_info.major}.{sys.version_info.minor}"
         raise PoseModelMissingError(
-            "the pose estimator needs MediaPipe: pip install 'imimic_gym[pose]' then "
+            f"the pose estimator needs MediaPipe {MEDIAPIPE_VERSION}, which has wheels for "
+            f"Python 3.9-3.12 only (this is {running}): pip install 'imimic_gym[pose]' then "
             f"pip install --no-deps mediapipe=={MEDIAPIPE_VERSION} (make setup does both); "
             f"{error}") from error
     return pose
