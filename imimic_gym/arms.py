@@ -90,9 +90,20 @@ class ArmSpec:
                 f"link, one entry per link; got {self.parents}"
             )
 
+    name = "planar"
+
     @property
     def n_links(self) -> int:
         return len(self.link_lengths)
+
+    @property
+    def n_joints(self) -> int:
+        """One joint per link (`robots.spec.RobotSpec`)."""
+        return len(self.link_lengths)
+
+    def build_model(self) -> mujoco.MjModel:
+        """`build_arm_model` of this spec."""
+        return build_arm_model(self)
 
     @property
     def link_parents(self) -> tuple[int, ...]:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import cv2
 import gymnasium as gym
@@ -14,7 +14,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import EzPickle
 
-from imimic_gym.arms import Control, build_arm_model
+from imimic_gym.arms import ArmSpec, Control
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import ClipSpec, get_scenario, robot_for_clip
 from imimic_gym.clips.types import Clip, depth_to_frame
@@ -22,6 +22,7 @@ from imimic_gym.envs.arguments import check_arguments
 from imimic_gym.estimators.types import Estimate, EstimatorContext
 from imimic_gym.kinematics import wrap_angle
 from imimic_gym.render import OffscreenRenderer
+from imimic_gym.robots.spec import RobotSpec
 
 __all__ = ["ImitateVideoEnv", "SimulationUnstableError", "imitate_env"]
 
@@ -193,7 +194,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
             if not self.clip_seeds:
                 raise ValueError("clip_seeds must name at least one seed, got an empty sequence")
             arm = self._robot_for_spec(self._spec, control)
-        self.arm = arm
+        self.arm: RobotSpec = arm
         self.clip = self._load(self.clip_seeds[0])
         fps = self.clip.fps
         if len(self.clip) < 2:
@@ -206,7 +207,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
                              f"frame and takes {MIN_FPS:g} to {MAX_FPS:g} (give the video's "
                              "real rate: stream_video/load_video(fps=...), --fps)")
 
-        self.model = self._build_model(arm)
+        self.model = arm.build_model()
         self.n_substeps = max(1, math.ceil(1.0 / fps / MAX_PHYSICS_STEP))
         self.model.opt.timestep = 1.0 / fps / self.n_substeps
         self.data = mujoco.MjData(self.model)
@@ -216,7 +217,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         self._joint_high = self.model.jnt_range[:, 1].copy()
         self.metadata = {**self.metadata, "render_fps": fps}
 
-        n = arm.n_links
+        n = arm.n_joints
         self._targets = self._clip_targets(self.clip)
         h, w = self.clip.height, self.clip.width
         self.action_space = spaces.Box(-1.0, 1.0, shape=(n,), dtype=np.float32)
@@ -233,16 +234,13 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         self._renderer: OffscreenRenderer | None = None
 
     # The robot and its targets: what ImitateVideo3D-v0 replaces -----------------------
-    def _robot_for_clip(self, clip: Clip, control: Control) -> Any:
+    def _robot_for_clip(self, clip: Clip, control: Control) -> RobotSpec:
         """The robot for a given clip (a recorded video): `robot_for_clip`."""
         return robot_for_clip(clip, control)
 
-    def _robot_for_spec(self, spec: ClipSpec, control: Control) -> Any:
+    def _robot_for_spec(self, spec: ClipSpec, control: Control) -> RobotSpec:
         """The robot for a scenario's clips: the demonstrator's arm (`ClipSpec.robot_arm`)."""
         return spec.robot_arm(control)
-
-    def _build_model(self, arm: Any) -> mujoco.MjModel:
-        return build_arm_model(arm)
 
     def _clip_targets(self, clip: Clip) -> np.ndarray | None:
         """(T, n) rad: the joint angles the robot should have in each frame of ``clip``
@@ -300,8 +298,8 @@ class ImitateVideoEnv(gym.Env, EzPickle):
             fps=float(self.clip.fps),
             link_parents=tuple(self.arm.link_parents),
             joint_ranges=tuple((float(lo), float(hi)) for lo, hi in self.arm.joint_ranges),
-            reference_direction=float(self.clip.meta.get("reference_direction",
-                                                         self.arm.reference_direction)),
+            reference_direction=float(self.clip.meta.get(
+                "reference_direction", cast(ArmSpec, self.arm).reference_direction)),
             modality=self.modality,
             demonstrator=str(self.clip.meta.get("demonstrator", "human")),
             robot=self.model,

@@ -214,6 +214,18 @@ class SO101Spec:
         q[_BODY_JOINTS] = lo + values[self.joint_names[_BODY_JOINTS]] / 100.0 * (hi - lo)
         return q
 
+    # What every robot description says (`robots.spec.RobotSpec`): STS3215s are position
+    # servos, and the joints form one chain.
+    control = "position"
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.joint_names)
+
+    @property
+    def link_parents(self) -> tuple[int, ...]:
+        return tuple(range(-1, len(self.joint_names) - 1))
+
     def clip(self, q: np.ndarray) -> np.ndarray:
         """``q`` (6,) rad clipped into the joint ranges."""
         return np.clip(np.asarray(q, dtype=np.float64), self.lower, self.upper)
