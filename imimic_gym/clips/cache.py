@@ -136,6 +136,11 @@ def clear_cache() -> int:
 def _write(path: Path, clip: Clip) -> None:
     truth = clip.truth
     assert truth is not None and clip.depth is not None
+    spatial: dict[str, Any] = {}
+    if truth.points3d is not None:
+        assert truth.points2d is not None and truth.arm_angles is not None
+        spatial = {"points3d": truth.points3d, "points2d": truth.points2d,
+                   "arm_angles": truth.arm_angles}
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.stem, suffix=".tmp")
     try:
@@ -154,6 +159,7 @@ def _write(path: Path, clip: Clip) -> None:
                 visible=truth.visible,
                 occlusion=truth.occlusion,
                 keypoint_names=np.array(truth.keypoint_names),
+                **spatial,
             )
         os.replace(tmp, path)
     except BaseException:
@@ -176,6 +182,8 @@ def _read(path: Path, spec: ClipSpec) -> Clip:
             visible=z["visible"],
             occlusion=z["occlusion"],
             keypoint_names=tuple(str(n) for n in z["keypoint_names"]),
+            **({name: z[name] for name in ("points3d", "points2d", "arm_angles")}
+               if "points3d" in z else {}),
         )
         meta["scenario"] = spec.name
         return Clip(frames=z["frames"], fps=float(z["fps"]), depth=depth_from_mm(z["depth_mm"]),

@@ -3,7 +3,9 @@ lights, an occluding board and a distractor, all posed kinematically per frame.
 
 Naming contract with the renderer (`synthetic.py`):
 - joints ``q1..qn`` are the demonstrator's arm joints, ``sway_x``/``sway_roll`` the body;
-- sites ``kp_<name>`` are the keypoints, in ``ClipSpec`` order;
+  the spatial arm's joints are named as `clips.gestures.SPATIAL_JOINTS` instead;
+- sites ``kp_<name>`` are the keypoints, in ``ClipSpec`` order; the spatial arm adds
+  ``arm_<name>`` for the points of `spatial.ARM_POINTS` that are not keypoints;
 - the moving links' geoms, and only they, are in geom group ``MOVING_GROUP``, so a pass
   can draw them alone;
 - mocap bodies ``occluder`` and ``distractor``; the camera is ``film``.
@@ -16,15 +18,21 @@ import math
 import numpy as np
 
 from imimic_gym.arms import fmt, link_frame_quat
+from imimic_gym.clips.gestures import SPATIAL_JOINT_RANGES, SPATIAL_JOINTS
 from imimic_gym.clips.scenarios import HUMAN_SEGMENTS, Appearance, ClipSpec
 
-__all__ = ["MOVING_GROUP", "camera_pose", "keypoint_names", "scene_mjcf", "workspace"]
+__all__ = ["ARM_SITES", "MOVING_GROUP", "camera_pose", "keypoint_names", "scene_mjcf",
+           "workspace"]
 
 MOVING_GROUP = 1
 SHOULDER = np.array([0.21, -0.02, 1.42])  # the moving arm's shoulder, world frame
 ELBOW = SHOULDER + np.array([HUMAN_SEGMENTS[0], 0.0, 0.0])  # with the upper arm held out
 HIP_HEIGHT = 0.95
 SKIN, SHIRT, PANTS = "0.87 0.67 0.53 1", "0.22 0.36 0.66 1", "0.2 0.2 0.25 1"
+# The spatial arm's sites of `spatial.ARM_POINTS`, in that order.
+ARM_SITES = ("kp_shoulder", "kp_elbow", "kp_wrist", "arm_hand", "arm_other_shoulder",
+             "arm_hip", "arm_other_hip")
+HAND_KNUCKLES = 0.09  # wrist to the index finger's knuckle (the pose model's "hand"), m
 
 
 def keypoint_names(spec: ClipSpec) -> tuple[str, ...]:
@@ -58,6 +66,8 @@ def _chain_points(spec: ClipSpec, angles: np.ndarray) -> np.ndarray:
 
 def workspace(spec: ClipSpec) -> tuple[np.ndarray, float]:
     """Centre (world, m) and radius (m) of the region the arm sweeps, from its ranges."""
+    if spec.spatial:  # the whole arm about the shoulder, forward and sideways and up
+        return SHOULDER + np.array([0.2, -0.2, -0.05]), 0.6
     ranges = np.asarray(spec.joint_ranges)
     samples = [
         _chain_points(spec, ranges[:, 0] + f * (ranges[:, 1] - ranges[:, 0]))
@@ -70,6 +80,19 @@ def workspace(spec: ClipSpec) -> tuple[np.ndarray, float]:
         return np.array([centre2d[0], centre2d[1], 0.024]), radius
     base = SHOULDER if spec.demonstrator == "human" else ELBOW
     return base + np.array([centre2d[0], 0.0, centre2d[1]]), radius
+
+
+def _person_materials(appearance: Appearance | None) -> str:
+    """The colours only the ``person`` body has: hair, shoes, the face's details."""
+    look = appearance or Appearance()
+    skin = np.array(look.skin)
+    return f"""
+    <material name="hair" rgba="{fmt((*look.hair, 1.0))}"/>
+    <material name="shoes" rgba="{fmt((*look.shoes, 1.0))}"/>
+    <material name="skin_shade" rgba="{fmt((*(0.8 * skin), 1.0))}"/>
+    <material name="lips" rgba="{fmt((*(skin * np.array([0.75, 0.45, 0.45])), 1.0))}"/>
+    <material name="eye_white" rgba="0.93 0.93 0.9 1"/>
+    <material name="pupil" rgba="0.08 0.06 0.05 1"/>"""
 
 
 def _materials(appearance: Appearance | None) -> str:
@@ -191,8 +214,11 @@ def _hand_tree(spec: ClipSpec, shoulder: np.ndarray) -> tuple[str, str]:
 def _human_body(spec: ClipSpec) -> str:
     """Torso, head, legs, the still arm, and the moving arm chain with its joints."""
     s = SHOULDER - np.array([0.0, 0.0, HIP_HEIGHT])
-    chain, closing = (_hand_tree(spec, s) if spec.demonstrator == "hand"
-                      else _arm_chain(spec, s))
+    if spec.spatial:
+        chain, closing = _spatial_arm(spec, s), ""
+    else:
+        chain, closing = (_hand_tree(spec, s) if spec.demonstrator == "hand"
+                          else _arm_chain(spec, s))
 
     return f"""
     <body name="root" pos="0 0 0">
@@ -206,7 +232,156 @@ def _human_body(spec: ClipSpec) -> str:
         <geom name="head" type="sphere" pos="0 0 0.7" size="0.11" material="skin"/>
         <geom name="still_upper_arm" type="capsule" fromto="-0.21 0 0.47 -0.24 0 0.18" size="0.045" material="shirt"/>
         <geom name="still_forearm" type="capsule" fromto="-0.24 0 0.18 -0.25 0 -0.08" size="0.037" material="skin"/>
-        {chain}{closing}
+        {chain}{closing}{_torso_sites(s) if spec.spatial else ""}
+      </body>
+    </body>"""
+
+
+def _torso_sites(shoulder: np.ndarray) -> str:
+    """The torso's points of `spatial.ARM_POINTS` (upper-body frame): the other
+    shoulder, mirrored, and the hip joints below the shoulders, in the shoulders' plane."""
+    x, y, _ = shoulder
+    return (f'<site name="arm_other_shoulder" pos="{fmt((-x, y, shoulder[2]))}" size="0.01"/>'
+            f'<site name="arm_hip" pos="{fmt((0.1, y, 0.0))}" size="0.01"/>'
+            f'<site name="arm_other_hip" pos="{fmt((-0.1, y, 0.0))}" size="0.01"/>')
+
+
+def _joint(name: str) -> str:
+    lo, hi = SPATIAL_JOINT_RANGES[SPATIAL_JOINTS.index(name)]
+    axis = {"shoulder_flexion": "-1 0 0", "shoulder_abduction": "0 -1 0",
+            "shoulder_rotation": "0 0 -1", "elbow_flexion": "-1 0 0",
+            "wrist_flexion": "0 1 0"}[name]
+    return f'<joint name="{name}" axis="{axis}" range="{lo:.12g} {hi:.12g}"/>'
+
+
+def _spatial_arm(spec: ClipSpec, shoulder: np.ndarray) -> str:
+    """The left arm in 3-D (`clips.gestures`), hanging down at zero: the shoulder's three
+    joints in one body (MuJoCo applies a body's joints in order, each about its axis as
+    the ones before have turned it), then the elbow and the wrist. The person faces -y,
+    so the left arm's outward is +x and its forward -y."""
+    upper, fore, _ = HUMAN_SEGMENTS
+    person = spec.body == "person"
+    look = spec.appearance or Appearance()
+    upper_geoms, fore_geoms, hand_geoms = (_person_arm(look, upper, fore) if person
+                                           else _mannequin_arm(look, upper, fore))
+    tip = 0.185 if person else HUMAN_SEGMENTS[2] + 0.033
+    return (
+        f'<body name="upper_arm" pos="{fmt(shoulder)}">'
+        + "".join(_joint(n) for n in SPATIAL_JOINTS[:3])
+        + f'<site name="kp_shoulder" size="0.01"/>{upper_geoms}'
+        f'<body name="forearm" pos="0 0 {-upper}">{_joint("elbow_flexion")}'
+        f'<site name="kp_elbow" size="0.01"/>{fore_geoms}'
+        f'<body name="hand" pos="0 0 {-fore}">{_joint("wrist_flexion")}'
+        f'<site name="kp_wrist" size="0.01"/>'
+        f'<site name="arm_hand" pos="0 0 {-HAND_KNUCKLES}" size="0.01"/>'
+        f'<site name="kp_hand_tip" pos="0 0 {-tip}" size="0.01"/>{hand_geoms}'
+        "</body></body></body>"
+    )
+
+
+def _mannequin_arm(look: Appearance, upper: float, fore: float) -> tuple[str, str, str]:
+    """The mannequin's capsules (as its planar arm's), along -z: upper arm, forearm, hand."""
+    moving = f'group="{MOVING_GROUP}"'
+    sleeve = "shirt" if look.long_sleeves else "skin"
+    return (f'<geom name="upper_arm" type="capsule" fromto="0 0 0 0 0 {-upper}" size="0.045" '
+            f'material="shirt" {moving}/>',
+            f'<geom name="forearm" type="capsule" fromto="0 0 0 0 0 {-fore}" size="0.037" '
+            f'material="{sleeve}" {moving}/>',
+            f'<geom name="hand" type="capsule" fromto="0 0 0 0 0 {-HUMAN_SEGMENTS[2]}" '
+            f'size="0.033" material="skin" {moving}/>')
+
+
+def _person_arm(look: Appearance, upper: float, fore: float, moving: bool = True,
+                prefix: str = "") -> tuple[str, str, str]:
+    """A person's arm along -z from the shoulder (hanging, palm towards the body's middle
+    at -x, thumb forward at -y): a sleeve over the upper arm, a forearm tapering to the
+    wrist, a palm with a block of fingers and a thumb. Girth scales with the build."""
+    b = look.build
+    group = f'group="{MOVING_GROUP}"' if moving else ""
+    sleeve_end = -upper if look.long_sleeves else -0.55 * upper
+    forearm = "shirt" if look.long_sleeves else "skin"
+
+    def geom(name: str, spec: str, material: str) -> str:
+        return f'<geom name="{prefix}{name}" {spec} material="{material}" {group}/>'
+
+    upper_geoms = (
+        geom("upper_arm", f'type="capsule" fromto="0 0 0 0 0 {sleeve_end:.4f}" '
+                          f'size="{0.05 * b:.4f}"', "shirt")
+        + geom("upper_arm_skin", f'type="capsule" fromto="0 0 {sleeve_end:.4f} 0 0 {-upper}" '
+                                 f'size="{0.042 * b:.4f}"', "skin" if forearm == "skin"
+               else "shirt"))
+    fore_geoms = (
+        geom("forearm", f'type="capsule" fromto="0 0 0 0 0 {-0.45 * fore:.4f}" '
+                        f'size="{0.038 * b:.4f}"', forearm)
+        + geom("forearm_wrist", f'type="capsule" fromto="0 0 {-0.45 * fore:.4f} 0 0 '
+                                f'{-fore + 0.02:.4f}" size="{0.029 * b:.4f}"', forearm))
+    hand_geoms = (
+        geom("palm", 'type="box" pos="0 0 -0.05" size="0.014 0.04 0.048"', "skin")
+        + geom("fingers", 'type="box" pos="0 0 -0.135" size="0.011 0.037 0.045"', "skin")
+        + geom("finger_gaps", 'type="box" pos="0.0 0 -0.15" size="0.0115 0.0015 0.03"',
+               "skin_shade")
+        + geom("thumb", 'type="capsule" fromto="0.004 -0.038 -0.03 0.0 -0.062 -0.085" '
+                        'size="0.0115"', "skin"))
+    return upper_geoms, fore_geoms, hand_geoms
+
+
+def _person_body(spec: ClipSpec) -> str:
+    """A person facing the camera (-y): legs with shoes, hips, a torso with shoulders,
+    a neck, a head with eyes, brows, nose, mouth, ears and hair, the still right arm
+    hanging, and the moving spatial left arm."""
+    look = spec.appearance or Appearance()
+    b = look.build
+    s = SHOULDER - np.array([0.0, 0.0, HIP_HEIGHT])
+    still = _person_arm(look, HUMAN_SEGMENTS[0], HUMAN_SEGMENTS[1], moving=False,
+                        prefix="still_")
+    legs = "".join(
+        f'<geom name="thigh_{side}" type="capsule" fromto="{x:.3f} 0 -0.02 {1.1 * x:.3f} 0 '
+        f'-0.48" size="{0.075 * b:.4f}" material="pants"/>'
+        f'<geom name="shin_{side}" type="capsule" fromto="{1.1 * x:.3f} 0 -0.48 {1.1 * x:.3f}'
+        f' 0.01 -0.88" size="{0.052 * b:.4f}" material="pants"/>'
+        f'<geom name="foot_{side}" type="box" pos="{1.1 * x:.3f} -0.05 -0.915" '
+        f'size="0.045 0.115 0.035" material="shoes"/>'
+        for side, x in (("l", 0.095), ("r", -0.095)))
+    hair = ('<geom name="hair" type="ellipsoid" pos="0 0.015 0.72" size="0.081 0.089 0.094" '
+            'material="hair"/>')
+    if look.long_hair:
+        hair += ('<geom name="hair_long" type="ellipsoid" pos="0 0.035 0.6" '
+                 'size="0.095 0.06 0.16" material="hair"/>')
+    face = "".join(
+        f'<geom name="eye_{side}" type="ellipsoid" pos="{x} -0.074 0.7" '
+        f'size="0.015 0.012 0.009" material="eye_white"/>'
+        f'<geom name="pupil_{side}" type="sphere" pos="{x} -0.084 0.7" size="0.0065" '
+        f'material="pupil"/>'
+        f'<geom name="brow_{side}" type="box" pos="{x} -0.08 0.722" size="0.017 0.006 '
+        f'0.0035" material="hair"/>'
+        f'<geom name="ear_{side}" type="ellipsoid" pos="{2.35 * x:.4f} 0.0 0.685" '
+        f'size="0.012 0.02 0.03" material="skin_shade"/>'
+        for side, x in (("l", 0.032), ("r", -0.032)))
+    face += ('<geom name="nose" type="ellipsoid" pos="0 -0.09 0.675" size="0.012 0.018 0.022" '
+             'material="skin"/>'
+             '<geom name="nostrils" type="ellipsoid" pos="0 -0.095 0.657" size="0.011 0.008 '
+             '0.004" material="skin_shade"/>'
+             '<geom name="mouth" type="ellipsoid" pos="0 -0.078 0.632" size="0.024 0.01 '
+             '0.0065" material="lips"/>')
+    return f"""
+    <body name="root" pos="0 0 0">
+      <joint name="sway_x" type="slide" axis="1 0 0"/>
+      <body name="legs" pos="0 0 {HIP_HEIGHT}">{legs}</body>
+      <body name="upper_body" pos="0 0 {HIP_HEIGHT}">
+        <joint name="sway_roll" axis="0 -1 0"/>
+        <geom name="hips" type="ellipsoid" pos="0 0 0.02" size="{0.165 * b:.4f} {0.105 * b:.4f} 0.12" material="pants"/>
+        <geom name="belly" type="ellipsoid" pos="0 0 0.16" size="{0.145 * b:.4f} {0.095 * b:.4f} 0.2" material="shirt"/>
+        <geom name="chest" type="ellipsoid" pos="0 -0.005 0.33" size="{0.17 * b:.4f} {0.1 * b:.4f} 0.15" material="shirt"/>
+        <geom name="shoulders" type="capsule" fromto="-0.16 -0.01 0.43 0.16 -0.01 0.43" size="{0.055 * b:.4f}" material="shirt"/>
+        <geom name="neck" type="capsule" fromto="0 0.005 0.46 0 0.005 0.6" size="{0.048 * b:.4f}" material="skin"/>
+        <geom name="head" type="ellipsoid" pos="0 0 0.68" size="0.075 0.09 0.105" material="skin"/>
+        {hair}{face}
+        <body name="still_arm" pos="{fmt((-s[0], s[1], s[2]))}" euler="0 0.1 0">{still[0]}
+          <body name="still_forearm" pos="0 0 {-HUMAN_SEGMENTS[0]}" euler="-0.15 0 0">{still[1]}
+            <body name="still_hand" pos="0 0 {-HUMAN_SEGMENTS[1]}">{still[2]}</body>
+          </body>
+        </body>
+        {_spatial_arm(spec, s)}{_torso_sites(s)}
       </body>
     </body>"""
 
@@ -265,7 +440,9 @@ def camera_pose(spec: ClipSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray, flo
     axes (3,) (unit, world frame) and its vertical field of view in degrees."""
     if spec.demonstrator == "servo":
         raise ValueError("camera_pose places the camera of a person's scene, not the servo's")
-    if spec.demonstrator == "human":  # the person's arm in the middle
+    if spec.spatial:  # the person from the shins up, room for the arm raised
+        look = np.array([0.15, 0.0, 1.2])
+    elif spec.demonstrator == "human":  # the person's arm in the middle
         look = np.array([0.3, 0.0, 1.35])
     else:  # the hand, filmed closer: its workspace in the middle
         centre, _ = workspace(spec)
@@ -312,7 +489,7 @@ def scene_mjcf(spec: ClipSpec, rng: np.random.Generator) -> str:
             '<geom name="wall" type="box" pos="0 0.6 1.5" size="6 0.005 4" material="wall"/>\n'
             '    <geom name="floor" type="box" pos="0 0 -0.005" size="6 6 0.005" material="floor"/>'
         )
-        body = _human_body(spec)
+        body = _person_body(spec) if spec.body == "person" else _human_body(spec)
         board_offset, board_axis = np.array([0, -0.5, 0]), "xz"
         distractor_size = 0.08
         light_el = _key_light(spec)
@@ -349,7 +526,8 @@ def scene_mjcf(spec: ClipSpec, rng: np.random.Generator) -> str:
     <headlight ambient="{fmt((0.25 * light,) * 3)}" diffuse="{fmt((0.35 * light,) * 3)}" specular="0 0 0"/>
     <map znear="0.01"/>
   </visual>
-  <asset>{_materials(spec.appearance)}
+  <asset>{_materials(spec.appearance)}{
+      _person_materials(spec.appearance) if spec.body == "person" else ""}
   </asset>
   <worldbody>
     {light_el}

@@ -11,6 +11,7 @@ from typing import Any, Literal
 import numpy as np
 
 from imimic_gym.arms import MAX_LINKS, ArmSpec, Control, Plane
+from imimic_gym.clips.gestures import GESTURES, Gesture
 from imimic_gym.clips.motion import MOTION_PROFILES, MotionProfile
 from imimic_gym.clips.types import Clip
 
@@ -19,6 +20,8 @@ __all__ = ["SCENARIOS", "Appearance", "ClipSpec", "get_scenario", "scenario_name
 Demonstrator = Literal["human", "servo", "hand"]
 Background = Literal["plain", "textured", "cluttered"]
 Occluder = Literal["none", "low", "high"]
+Body = Literal["mannequin", "person"]
+BODIES: tuple[str, ...] = ("mannequin", "person")
 
 # Human segment lengths (m): upper arm, forearm, hand.
 HUMAN_SEGMENTS = (0.30, 0.27, 0.17)
@@ -52,6 +55,11 @@ class Appearance:
         camera_shift: the camera moved sideways (+: to the image's right), so the person
             sits further left in the frame.
         fovy: the camera's vertical field of view.
+        hair: the hair's colour (the ``person`` body only, as the fields below).
+        long_hair: hair down to the shoulders instead of short.
+        shoes: the shoes' colour.
+        build: the torso's and limbs' girth, a factor on the defaults (0.85-1.2);
+            the bones' lengths stay.
     """
 
     skin: RGB = (0.87, 0.67, 0.53)
@@ -69,10 +77,14 @@ class Appearance:
     camera_tilt: float = 0.0
     camera_shift: float = 0.0
     fovy: float = 45.0
+    hair: RGB = (0.16, 0.1, 0.06)
+    long_hair: bool = False
+    shoes: RGB = (0.08, 0.08, 0.09)
+    build: float = 1.0
 
     def __post_init__(self) -> None:
         for name in ("skin", "shirt", "pants", "wall", "tile", "floor", "light_colour",
-                     "light_direction"):
+                     "light_direction", "hair", "shoes"):
             value = tuple(float(v) for v in getattr(self, name))  # JSON gives lists
             object.__setattr__(self, name, value)
             if len(value) != 3 or not all(math.isfinite(v) for v in value):
@@ -87,9 +99,16 @@ class Appearance:
             raise ValueError(f"appearance tile_size must be 0.02-2 m, got {self.tile_size}")
         if not 10.0 <= self.fovy <= 120.0:
             raise ValueError(f"appearance fovy must be 10-120 degrees, got {self.fovy}")
+        if not 0.85 <= self.build <= 1.2:
+            raise ValueError(f"appearance build must be 0.85-1.2, got {self.build}")
         if not -60.0 <= self.camera_tilt <= 60.0:
             raise ValueError(f"appearance camera_tilt must be -60..60 degrees, got "
                              f"{self.camera_tilt}")
+
+
+# Appearance fields only the ``person`` body shows: a spec's key leaves them out while they
+# have their defaults, so the keys of specs written before they existed stay.
+PERSON_APPEARANCE = ("hair", "long_hair", "shoes", "build")
 
 
 @dataclass(frozen=True)
@@ -104,7 +123,12 @@ class ClipSpec:
         n_links: moving links, 1 to 3. Human: 1 = forearm (elbow), 2 = + shoulder,
             3 = + wrist. Servo: a chain of n paper links. Hand: 3 (forearm, and thumb and
             index finger both on it).
-        motion: ``"sinusoid"``, ``"spline"`` (smooth random) or ``"fast"`` (fast random).
+        motion: ``"sinusoid"``, ``"spline"`` (smooth random) or ``"fast"`` (fast random)
+            for the arm in the image plane; or a gesture of the spatial arm
+            (`clips.gestures`: ``"reach"``, ``"cup"``, ``"raise"``, ``"curl"``,
+            ``"wave"``, ``"mix"``), a human demonstrator's whole arm moving in 3-D, whose
+            clips carry 3-D truth and whose ``n_links`` (2 or 3) are the planar reading
+            of its keypoints.
         background: ``"plain"``, ``"textured"`` or ``"cluttered"`` (shapes on the wall and
             a moving distractor ball).
         lighting: light intensity in [0.2, 1.0]; the paper reports DON works above 0.5.
@@ -118,12 +142,15 @@ class ClipSpec:
         appearance: colours, backdrop, light and camera placement of a person's scene
             (`Appearance`); None (the default) is the scene every named scenario uses,
             and leaves the spec's `key` as it was before the field existed.
+        body: the human demonstrator's figure: ``"mannequin"`` (capsules, no face or
+            hands: the paper scenarios') or ``"person"`` (a face, hair, hands with
+            fingers, human proportions; the spatial arm only).
         name: the scenario's name; not part of the clip's identity.
     """
 
     demonstrator: Demonstrator = "human"
     n_links: int = 1
-    motion: MotionProfile = "sinusoid"
+    motion: MotionProfile | Gesture = "sinusoid"
     background: Background = "plain"
     lighting: float = 1.0
     camera_distance: float = 2.2
@@ -135,6 +162,7 @@ class ClipSpec:
     n_frames: int = 150
     seed: int = 0
     appearance: Appearance | None = None
+    body: Body = "mannequin"
     name: str = field(default="custom", compare=False)
 
     def __post_init__(self) -> None:
@@ -144,7 +172,8 @@ class ClipSpec:
             )
         for name, value, allowed in (
             ("demonstrator", self.demonstrator, ("human", "servo", "hand")),
-            ("motion", self.motion, MOTION_PROFILES),
+            ("motion", self.motion, MOTION_PROFILES + GESTURES),
+            ("body", self.body, BODIES),
             ("background", self.background, ("plain", "textured", "cluttered")),
             ("occluder", self.occluder, ("none", "low", "high")),
         ):
@@ -153,6 +182,13 @@ class ClipSpec:
         if self.demonstrator == "hand" and self.n_links != 3:
             raise ValueError(f"the hand has 3 joints (forearm, thumb, index finger); "
                              f"n_links must be 3, got {self.n_links}")
+        if self.spatial and (self.demonstrator != "human" or self.n_links == 1):
+            raise ValueError(f"the spatial arm (motion {self.motion!r}) is a human "
+                             f"demonstrator's with 2 or 3 links; got demonstrator "
+                             f"{self.demonstrator!r} with {self.n_links}")
+        if self.body == "person" and not self.spatial:
+            raise ValueError(f"the person body has the spatial arm only; motion "
+                             f"{self.motion!r} moves the mannequin's arm in the image plane")
         if not 0.2 <= self.lighting <= 1.0:
             raise ValueError(f"lighting must be in [0.2, 1.0], got {self.lighting}")
         for name in ("height", "width", "n_frames"):
@@ -188,11 +224,23 @@ class ClipSpec:
         fields.pop("name")
         if self.appearance is None:
             fields.pop("appearance")
+        else:
+            defaults = Appearance()
+            for name in PERSON_APPEARANCE:
+                if getattr(self.appearance, name) == getattr(defaults, name):
+                    fields["appearance"].pop(name)
+        if self.body == "mannequin":
+            fields.pop("body")
         return fields
 
     def key(self) -> str:
         """A content hash of everything that determines the pixels (not the name)."""
         return hashlib.sha256(json.dumps(self.record(), sort_keys=True).encode()).hexdigest()[:20]
+
+    @property
+    def spatial(self) -> bool:
+        """Does the arm move in 3-D (a gesture, `clips.gestures`)?"""
+        return self.motion in GESTURES
 
     # Geometry that the demonstrator scene and the matching robot arm share.
     @property
@@ -216,6 +264,8 @@ class ClipSpec:
         """Joint limits in rad, shared by the demonstrator's motion and the robot."""
         if self.demonstrator == "servo":
             return ((-60 * DEG, 60 * DEG),) * self.n_links  # the paper's 120 degree servo
+        if self.spatial:  # the planar reading of a 3-D arm takes any image direction
+            return ((-math.pi, math.pi),) * self.n_links
         if self.demonstrator == "hand":  # forearm, thumb, index: the fingers never overlap
             return ((0.0, 120 * DEG), (30 * DEG, 90 * DEG), (-30 * DEG, 20 * DEG))
         shoulder, elbow, wrist = (0.0, 150 * DEG), (0.0, 120 * DEG), (-60 * DEG, 60 * DEG)
@@ -281,6 +331,11 @@ SCENARIOS: dict[str, ClipSpec] = {
                  camera_distance=1.2),
         ClipSpec(name="chain-2", n_links=2, motion="spline", background="textured"),
         ClipSpec(name="chain-3", n_links=3, motion="spline", background="textured"),
+        # The arm in 3-D (issue 36): a person facing the camera, one gesture each, and
+        # "spatial" mixing them (a different sequence per seed).
+        *(ClipSpec(name=f"spatial-{gesture}", motion=gesture, n_links=2, body="person")
+          for gesture in ("reach", "cup", "raise", "curl", "wave")),
+        ClipSpec(name="spatial", motion="mix", n_links=2, body="person"),
     )
 }
 

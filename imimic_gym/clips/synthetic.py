@@ -13,27 +13,40 @@ images overlap: when the board's projected corners and the moving keypoints' box
 by a limb's width) do not overlap, the board hides nothing and needs no pass. (The pass,
 when run, reports up to 1% of the links "hidden" where the upper arm's thicker capsule
 meets the forearm; frames that skip it report 0, as every scene without a board does.)
+
+A spatial arm's clip (a gesture, `clips.gestures`) also has 3-D truth: its points of
+`spatial.ARM_POINTS` read from the posed scene's sites and turned into the camera frame,
+projected through `spatial.Intrinsics` (in ``meta["intrinsics"]``), and the gesture's joint
+angles; its planar ``angles`` are the image's reading of the keypoints
+(`planar_angles`), their derivatives by finite differences.
 """
 
 from __future__ import annotations
+
+from dataclasses import asdict
+from typing import cast
 
 import mujoco
 import numpy as np
 from tqdm.auto import tqdm
 
 from imimic_gym.clips.demonstrator import (
+    ARM_SITES,
     MOVING_GROUP,
     distractor_path,
     keypoint_names,
     occluder_path,
     scene_mjcf,
 )
-from imimic_gym.clips.motion import sample_motion
+from imimic_gym.clips.gestures import SPATIAL_JOINTS, Gesture, sample_gesture
+from imimic_gym.clips.motion import MotionProfile, sample_motion
 from imimic_gym.clips.scenarios import ClipSpec
 from imimic_gym.clips.types import Clip, ClipTruth, depth_from_mm, depth_to_mm
+from imimic_gym.kinematics import wrap_angle
 from imimic_gym.render import OffscreenRenderer, project_points
+from imimic_gym.spatial.camera import Intrinsics
 
-__all__ = ["clip_meta", "render_clip"]
+__all__ = ["clip_meta", "planar_angles", "render_clip"]
 
 SWAY_METRES, SWAY_RADIANS = 0.04, np.radians(3.0)
 
@@ -52,6 +65,33 @@ def clip_meta(spec: ClipSpec) -> dict:
         "joint_ranges": [list(r) for r in spec.joint_ranges],
         "arm_plane": arm.plane,
     }
+
+
+def planar_angles(keypoints: np.ndarray, n_links: int, reference_direction: float,
+                  fps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The planar reading (the `imimic_gym.arms` convention) of a spatial arm's
+    keypoints (T, 4, 2) pixels (shoulder, elbow, wrist, hand tip): link i's image
+    direction minus its parent's (the reference's for the first), wrapped.
+
+    Returns angle (T, n_links) rad in [-pi, pi), and its velocity (rad/s) and
+    acceleration (rad/s^2) by central differences of the unwrapped angle."""
+    k = keypoints.astype(np.float64)
+    delta = np.diff(k, axis=1)[:, :n_links]
+    direction = np.arctan2(-delta[..., 1], delta[..., 0])
+    parent = np.concatenate([np.full((len(k), 1), reference_direction), direction[:, :-1]],
+                            axis=1)
+    angle = wrap_angle(direction - parent)
+    if len(k) < 2:
+        return angle, np.zeros_like(angle), np.zeros_like(angle)
+    velocity = np.gradient(np.unwrap(angle, axis=0), 1.0 / fps, axis=0)
+    return angle, velocity, np.gradient(velocity, 1.0 / fps, axis=0)
+
+
+def _camera_frame(data: mujoco.MjData, camera: int, points: np.ndarray) -> np.ndarray:
+    """World points (K, 3) in the camera frame of `spatial.camera` (x right, y down, z
+    away from the camera; MuJoCo's camera looks along its -z with y up)."""
+    local = (points - data.cam_xpos[camera]) @ data.cam_xmat[camera].reshape(3, 3)
+    return local * np.array([1.0, -1.0, -1.0])
 
 
 def _visible(
@@ -100,9 +140,14 @@ def render_clip(spec: ClipSpec, progress: bool = True) -> Clip:
     and full `ClipTruth`.
     """
     rng = np.random.default_rng(spec.seed)
-    angles, velocity, acceleration = sample_motion(
-        spec.motion, np.asarray(spec.joint_ranges), spec.n_frames, spec.fps, rng
-    )
+    if spec.spatial:
+        angles, velocity, acceleration = sample_gesture(
+            cast(Gesture, spec.motion), spec.n_frames, spec.fps, rng)
+    else:
+        angles, velocity, acceleration = sample_motion(
+            cast(MotionProfile, spec.motion), np.asarray(spec.joint_ranges), spec.n_frames,
+            spec.fps, rng
+        )
     model = mujoco.MjModel.from_xml_string(scene_mjcf(spec, rng))
     data = mujoco.MjData(model)
     t = np.arange(spec.n_frames) / spec.fps
@@ -112,7 +157,8 @@ def render_clip(spec: ClipSpec, progress: bool = True) -> Clip:
     occluder = occluder_path(spec, t, rng) if spec.occluder != "none" else None
     distractor = distractor_path(spec, t, rng) if spec.background == "cluttered" else None
 
-    arm_qpos = [model.jnt_qposadr[model.joint(f"q{i + 1}").id] for i in range(spec.n_links)]
+    joints = SPATIAL_JOINTS if spec.spatial else [f"q{i + 1}" for i in range(spec.n_links)]
+    arm_qpos = [model.jnt_qposadr[model.joint(name).id] for name in joints]
     sway_qpos = [model.jnt_qposadr[model.joint(n).id] for n in ("sway_x", "sway_roll")]
     names = keypoint_names(spec)
     site_ids = [model.site(f"kp_{n}").id for n in names]
@@ -140,6 +186,8 @@ def render_clip(spec: ClipSpec, progress: bool = True) -> Clip:
     keypoints = np.empty((n, len(names), 2), dtype=np.float32)
     visible = np.empty((n, len(names)), dtype=bool)
     occlusion = np.zeros(n, dtype=np.float32)
+    arm_sites = [model.site(name).id for name in ARM_SITES] if spec.spatial else []
+    points3d = np.empty((n, len(arm_sites), 3))
 
     with OffscreenRenderer(model, h, w) as renderer:
         for i in tqdm(range(n), desc=f"rendering {spec.name}", disable=not progress,
@@ -159,6 +207,8 @@ def render_clip(spec: ClipSpec, progress: bool = True) -> Clip:
                 model, data, camera, data.site_xpos[site_ids], h, w
             )
             visible[i] = _visible(depth[i], keypoints[i], distances, keypoint_margin)
+            if arm_sites:
+                points3d[i] = _camera_frame(data, camera, data.site_xpos[arm_sites])
             board_near = occluder is not None and _boxes_overlap(
                 keypoints[i][moving_keypoints], project_points(
                     model, data, camera, _box_corners(model, data, board), h, w)[0],
@@ -172,6 +222,16 @@ def render_clip(spec: ClipSpec, progress: bool = True) -> Clip:
                 total = np.count_nonzero(covered)
                 occlusion[i] = np.count_nonzero(hidden) / total if total else 0.0
 
+    meta = clip_meta(spec)
+    spatial: dict = {}
+    if spec.spatial:
+        intrinsics = Intrinsics.from_fovy(float(model.cam_fovy[camera]), w, h)
+        meta["intrinsics"] = asdict(intrinsics)
+        meta["arm_side"] = "left"
+        spatial = {"points3d": points3d, "points2d": intrinsics.project(points3d),
+                   "arm_angles": angles}
+        angles, velocity, acceleration = planar_angles(
+            keypoints, spec.n_links, spec.reference_direction, spec.fps)
     truth = ClipTruth(
         angles=angles,
         angular_velocity=velocity,
@@ -180,7 +240,7 @@ def render_clip(spec: ClipSpec, progress: bool = True) -> Clip:
         visible=visible,
         occlusion=occlusion,
         keypoint_names=names,
+        **spatial,
     )
     depth = depth_from_mm(depth_to_mm(depth))
-    return Clip(frames=frames, fps=float(spec.fps), depth=depth, truth=truth,
-                meta=clip_meta(spec))
+    return Clip(frames=frames, fps=float(spec.fps), depth=depth, truth=truth, meta=meta)

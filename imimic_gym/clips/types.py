@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -58,6 +58,15 @@ class ClipTruth:
         occlusion: (T,) float32 in [0, 1], fraction of the moving links' pixels hidden
             by an occluder.
         keypoint_names: K names, e.g. ("shoulder", "elbow", "wrist", "hand_tip").
+        points3d: a spatial arm's clip only (else None): (T, 7, 3) float64, metres in the
+            camera frame (x right, y down, z away from the camera), the points of
+            `spatial.ARM_POINTS` in that order (the moving arm's shoulder, elbow, wrist
+            and hand knuckle, the other shoulder, this side's hip, the other hip). The
+            camera is ``Clip.meta["intrinsics"]`` (`spatial.Intrinsics`' fields), the
+            arm's side ``Clip.meta["arm_side"]``.
+        points2d: with ``points3d``: (T, 7, 2) float64 pixels (x, y), their projections.
+        arm_angles: with ``points3d``: (T, 5) float64 rad, the arm's joint angles in
+            `clips.gestures.SPATIAL_JOINTS` order.
     """
 
     angles: np.ndarray
@@ -67,6 +76,9 @@ class ClipTruth:
     visible: np.ndarray
     occlusion: np.ndarray
     keypoint_names: tuple[str, ...]
+    points3d: np.ndarray | None = None
+    points2d: np.ndarray | None = None
+    arm_angles: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         t, n = self.angles.shape if self.angles.ndim == 2 else (None, None)
@@ -77,6 +89,15 @@ class ClipTruth:
         _check("truth.keypoints", self.keypoints, (t, k, 2), np.float32)
         _check("truth.visible", self.visible, (t, k), np.bool_)
         _check("truth.occlusion", self.occlusion, (t,), np.float32)
+        spatial = (self.points3d, self.points2d, self.arm_angles)
+        if any(v is None for v in spatial) and any(v is not None for v in spatial):
+            raise ValueError("truth.points3d, points2d and arm_angles come together: all "
+                             "three or none")
+        for name, value, shape in (("points3d", self.points3d, (t, 7, 3)),
+                                   ("points2d", self.points2d, (t, 7, 2)),
+                                   ("arm_angles", self.arm_angles, (t, 5))):
+            if value is not None:
+                _check(f"truth.{name}", value, shape, np.float64)
 
     @property
     def n_joints(self) -> int:
@@ -144,10 +165,18 @@ class Clip:
                 [cv2.resize(d, (w, h), interpolation=cv2.INTER_NEAREST) for d in self.depth]
             )
         truth = self.truth
+        meta = dict(self.meta)
         if truth is not None:
             scale = np.array([w / self.width, h / self.height], dtype=np.float32)
             truth = replace(truth, keypoints=(truth.keypoints * scale).astype(np.float32))
-        return Clip(frames=frames, fps=self.fps, depth=depth, truth=truth, meta=dict(self.meta))
+            if truth.points2d is not None:
+                truth = replace(truth, points2d=truth.points2d * np.array(
+                    [w / self.width, h / self.height]))
+        if "intrinsics" in meta:
+            from imimic_gym.spatial.camera import Intrinsics
+
+            meta["intrinsics"] = asdict(Intrinsics(**meta["intrinsics"]).scaled(w, h))
+        return Clip(frames=frames, fps=self.fps, depth=depth, truth=truth, meta=meta)
 
     @property
     def n_links(self) -> int:

@@ -64,7 +64,7 @@ KEYS_BEFORE_APPEARANCE = {
 
 
 def test_existing_scenarios_keep_their_keys() -> None:
-    assert {name: spec.key() for name, spec in SCENARIOS.items()} == KEYS_BEFORE_APPEARANCE
+    assert {name: SCENARIOS[name].key() for name in KEYS_BEFORE_APPEARANCE} == KEYS_BEFORE_APPEARANCE
     assert "appearance" not in get_scenario("default").record()
 
 
