@@ -29,6 +29,9 @@ def cmd_mimic(args: argparse.Namespace) -> int:
     from imimic_gym.estimators.registry import get_estimator
 
     entry = get_estimator(args.estimator)
+    if entry.spatial:
+        raise CommandError(f"imimic mimic: {args.estimator} reads the arm in 3-D; the "
+                           "planar robots copy planar estimators' joint angles")
     if args.pivot and "pivot" not in entry.params:
         raise CommandError(f"imimic mimic: --pivot is DON's; {args.estimator} finds the joints "
                          "itself")
