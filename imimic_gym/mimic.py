@@ -86,6 +86,14 @@ class MimicLog:
         if self.first_done is None:
             self.first_done = self.last_done
 
+    def drop_last(self) -> None:
+        """Forget the last frame logged (one whose outputs were not all written)."""
+        for series in (self.time, self.angles, self.robot, self.trust, self.predicted,
+                       self.latency_ms):
+            del series[-1:]
+        if not self.time:
+            self.first_done = self.last_done = None
+
     def trajectory(self) -> Trajectory:
         """The run as a `Trajectory` whose target is the estimate (for `plot_tracking`)."""
         return Trajectory(time=np.asarray(self.time), target=np.asarray(self.angles),
@@ -146,18 +154,26 @@ def mimic_frames(env: EstimatorObservation, controller: Any, log: MimicLog, rows
     the stream) through `rollout.episode`, yielding each side-by-side frame (H, 2W, 3)
     uint8 RGB as it is made.
 
-    Observers, in order: the joint command to ``servo`` (a `ServoBridge`), ``log`` (the
-    estimate, robot angle and latency), a row into the csv writer ``rows``, then
-    ``observers`` (a progress display). A stream that ends early ends the run, not an
-    error. ``realtime`` waits until frame i's time (i / fps after the first).
+    Observers, in order: the joint command to ``servo`` (a `ServoBridge`) and ``log``
+    (the estimate, robot angle and latency); then, once the frame is drawn, a row into the
+    csv writer ``rows`` and ``observers`` (a progress display). A frame whose drawing is
+    interrupted (Ctrl-C) is taken back out of ``log``, so the log, the CSV and the frames
+    yielded end at the same frame. A stream that ends early ends the run, not an error.
+    ``realtime`` waits until frame i's time (i / fps after the first).
     """
     watching: list[Observer] = [] if servo is None else [ServoOut(servo)]
-    watching.append(log)
-    if rows is not None:
-        watching.append(CsvLog(rows, log))
-    for _ in episode(env, controller, seed=0, observers=[*watching, *observers],
-                     realtime=realtime):
-        yield cast(np.ndarray, env.render())  # render_mode="rgb_array"
+    drawn: list[Observer] = [] if rows is None else [CsvLog(rows, log)]
+    drawn.extend(observers)
+    for step in episode(env, controller, seed=0, observers=[*watching, log],
+                        realtime=realtime):
+        try:
+            frame = cast(np.ndarray, env.render())  # render_mode="rgb_array"
+        except BaseException:
+            log.drop_last()
+            raise
+        for observer in drawn:
+            observer.on_step(env, step)
+        yield frame
 
 
 class _Progress:
@@ -183,31 +199,40 @@ def write_behind(path: Path, frames: Iterator[np.ndarray], fps: float,
     """`write_video` on a thread of its own, fed through a queue of ``depth`` frames, so
     that encoding a frame overlaps estimating the next (the encoder and the estimator
     then share the two cores). The file is finalised whatever ends the run (Ctrl-C
-    included); an error of the writer's is raised here."""
+    included), with every frame ``frames`` yielded, even one whose hand-over Ctrl-C
+    interrupted; an error of the writer's is raised here."""
     done = object()
     pending: queue.Queue = queue.Queue(maxsize=depth)
     failed: list[BaseException] = []
+    finished = threading.Event()  # the writer has taken the end marker
 
     def feed() -> Iterator[np.ndarray]:
         while (frame := pending.get()) is not done:
             yield frame
+        finished.set()
 
     def write() -> None:
         try:
             write_video(path, feed(), fps)
         except BaseException as error:  # handed to the caller below
             failed.append(error)
-            while pending.get() is not done:  # let the producer finish
-                pass
+            while not finished.is_set() and pending.get() is not done:  # let the producer
+                pass                                                     # finish
 
     writer = threading.Thread(target=write, name="mimic.mp4 writer", daemon=True)
     writer.start()
+    made = handed = 0
+    frame = None
     try:
         for frame in frames:
+            made += 1
             pending.put(frame)
+            handed += 1
             if failed:
                 break
     finally:
+        if handed < made and not failed:  # Ctrl-C while waiting for room in the queue
+            pending.put(frame)
         pending.put(done)
         writer.join()
     if failed:

@@ -20,7 +20,7 @@ from imimic_gym.cli.common import (
 )
 from imimic_gym.cli.evaluate import add_eval
 from imimic_gym.cli.mimic import add_label, add_mimic
-from imimic_gym.interrupts import CTRL_C, is_ctrl_c
+from imimic_gym.interrupts import CTRL_C, is_ctrl_c, restore_ctrl_c
 
 
 def _demo_estimator(requested: str | None, scenario: str) -> str:
@@ -280,21 +280,24 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     from imimic_gym.clips.cache import CacheSettingError
 
-    args = build_parser().parse_args(argv)
+    command = "imimic"
     try:
+        restore_ctrl_c()  # a Ctrl-C from here on is caught below
+        args = build_parser().parse_args(argv)
+        command = f"imimic {args.command}"
         return int(args.func(args))
     except CommandError as error:
         print(error, file=sys.stderr)
         raise
     except OSError as error:  # a folder or file the user named (--out, --video, ...)
-        print(f"imimic {args.command}: {error}", file=sys.stderr)
+        print(f"{command}: {error}", file=sys.stderr)
         return 2
     except CacheSettingError as error:
-        print(f"imimic {args.command}: {error}", file=sys.stderr)
+        print(f"{command}: {error}", file=sys.stderr)
         return 2
     except CTRL_C as error:  # commands that keep partial work catch it themselves
         if not is_ctrl_c(error):
             raise
-        print(f"imimic {args.command}: stopped by Ctrl-C", file=sys.stderr)
+        print(f"{command}: stopped by Ctrl-C", file=sys.stderr)
         return 130
 

@@ -122,7 +122,9 @@ def _mimic(args: argparse.Namespace) -> int:
     print(f"{summary['ended']}: wrote {out / 'mimic.mp4'}, {out / 'angles.png'}, "
           f"{out / 'mimic.csv'}, {out / 'mimic.json'}")
     print_table({k: v for k, v in summary.items() if k not in ("source",)})
-    return 0
+    # Stopped early, as every command stopped by Ctrl-C: not the success a following
+    # command expects.
+    return 130 if summary["ended"] == "stopped by Ctrl-C" else 0
 
 
 def cmd_label(args: argparse.Namespace) -> int:
