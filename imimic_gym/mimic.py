@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import queue
 import threading
 import time
@@ -45,6 +46,7 @@ from imimic_gym.estimators.registry import get_estimator
 from imimic_gym.interrupts import CTRL_C, is_ctrl_c
 from imimic_gym.rollout import Observer, Step, Trajectory, episode
 from imimic_gym.wrappers import EstimatorObservation, RegistryObservation
+from imimic_gym.wrappers.spatial import RetargetedEstimator
 
 __all__ = ["PREVIEW_HEIGHT", "CsvLog", "MimicLog", "ServoOut", "mimic_frames", "run_mimic",
            "write_behind"]
@@ -130,6 +132,60 @@ class CsvLog:
                             f"{self.log.latency_ms[-1]:.2f}"])
 
 
+def spatial_csv_header(joint_names: Sequence[str]) -> list[str]:
+    """mimic.csv's columns for a spatial robot (``--robot so101``): the arm read in 3-D
+    (elbow flexion, degrees; the upper-arm and forearm unit directions in the camera
+    frame, x right, y down, z away from the camera) and the robot's joint targets named as
+    LeRobot names them (``shoulder_pan.pos``: degrees; ``gripper.pos``: 0-100)."""
+    return ["time_s", "frame", "eta", "elbow_flexion_deg", "upper_x", "upper_y", "upper_z",
+            "fore_x", "fore_y", "fore_z", *(f"{name}.pos" for name in joint_names),
+            "latency_ms"]
+
+
+class SpatialCsvLog:
+    """Observer: one ``mimic.csv`` row a frame (`spatial_csv_header`) for a spatial robot:
+    the estimator's last `ArmPose` and the joint command the controller gave (the
+    position servos' targets, what a real arm is sent), in LeRobot's units. Runs after
+    ``log``."""
+
+    def __init__(self, rows: Any, log: MimicLog, robot: Any) -> None:
+        self.rows, self.log, self.robot = rows, log, robot
+        self._inner: Any = None
+
+    def on_step(self, env: gym.Env, step: Step) -> None:
+        if self._inner is None:
+            self._inner = imitate_env(env)
+        pose = cast("RetargetedEstimator", cast(EstimatorObservation, env).estimator).last_pose
+        targets = self.robot.to_lerobot(self._inner.action_to_command(step.action))
+        estimate = cast(EstimatorObservation, env).last_estimate
+        assert estimate is not None and pose is not None
+        self.rows.writerow([f"{self.log.time[-1]:.4f}", step.info["frame_index"],
+                            f"{estimate.trust:.4f}",
+                            f"{math.degrees(pose.elbow_flexion):.3f}",
+                            *(f"{v:.5f}" for v in pose.upper_arm),
+                            *(f"{v:.5f}" for v in pose.forearm),
+                            *(f"{targets[name]:.4f}" for name in self.robot.joint_names),
+                            f"{self.log.latency_ms[-1]:.2f}"])
+
+
+class BusOut:
+    """Observer: each frame's joint command to a spatial robot's bus (an `SO101Bus`): the
+    position servos' targets in LeRobot's units, with the estimate's trust (the bus holds
+    on trust 0)."""
+
+    def __init__(self, bus: Any, robot: Any) -> None:
+        self.bus, self.robot = bus, robot
+        self._inner: Any = None
+
+    def on_step(self, env: gym.Env, step: Step) -> None:
+        if self._inner is None:
+            self._inner = imitate_env(env)
+        estimate = cast(EstimatorObservation, env).last_estimate
+        assert estimate is not None
+        self.bus.send(self.robot.to_lerobot(self._inner.action_to_command(step.action)),
+                      estimate.trust)
+
+
 class ServoOut:
     """Observer: each frame's joint command to ``servo`` (a `ServoBridge`): the position
     command of the controller's action, or the simulated robot's angle under another
@@ -149,7 +205,7 @@ class ServoOut:
 
 def mimic_frames(env: EstimatorObservation, controller: Any, log: MimicLog, rows: Any = None,
                  servo: Any = None, observers: Sequence[Observer] = (),
-                 realtime: bool = False) -> Iterator[np.ndarray]:
+                 realtime: bool = False, robot: Any = None) -> Iterator[np.ndarray]:
     """Run ``controller`` on the estimator-wrapped ``env`` to the end of its clip (or of
     the stream) through `rollout.episode`, yielding each side-by-side frame (H, 2W, 3)
     uint8 RGB as it is made.
@@ -159,10 +215,14 @@ def mimic_frames(env: EstimatorObservation, controller: Any, log: MimicLog, rows
     csv writer ``rows`` and ``observers`` (a progress display). A frame whose drawing is
     interrupted (Ctrl-C) is taken back out of ``log``, so the log, the CSV and the frames
     yielded end at the same frame. A stream that ends early ends the run, not an error.
-    ``realtime`` waits until frame i's time (i / fps after the first).
+    ``realtime`` waits until frame i's time (i / fps after the first). ``robot``: a
+    spatial robot's description (`robots.SO101Spec`) on ``ImitateVideo3D-v0``: its rows
+    are `spatial_csv_header`'s and ``servo`` is its bus (an `SO101Bus`, `BusOut`).
     """
-    watching: list[Observer] = [] if servo is None else [ServoOut(servo)]
-    drawn: list[Observer] = [] if rows is None else [CsvLog(rows, log)]
+    watching: list[Observer] = ([] if servo is None else [ServoOut(servo)] if robot is None
+                                else [BusOut(servo, robot)])
+    drawn: list[Observer] = ([] if rows is None else [CsvLog(rows, log)] if robot is None
+                             else [SpatialCsvLog(rows, log, robot)])
     drawn.extend(observers)
     for step in episode(env, controller, seed=0, observers=[*watching, log],
                         realtime=realtime):
@@ -250,14 +310,18 @@ def steady_rate(log: MimicLog) -> float:
 def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str = "position",
               estimator_params: dict[str, Any] | None = None, servo: Any = None,
               progress: bool = True, realtime: bool = False,
-              preview_height: int | None = PREVIEW_HEIGHT) -> dict[str, Any]:
+              preview_height: int | None = PREVIEW_HEIGHT,
+              robot: str | None = None) -> dict[str, Any]:
     """Mimic the arm in ``clip`` (a `Clip`, typically from `stream_video`) and write the
     outputs into ``out`` (see the module docstring). ``realtime`` paces a file to its own
     frame rate (a servo then moves at the person's speed; a camera paces itself). Returns
     the summary also written to ``mimic.json``: frames, wall time, frames/s, latency, mean
     eta, how the run ended. The clip's stream and ``servo`` are closed at the end.
     ``preview_height``: rows of ``mimic.mp4`` where the footage has more (None: the
-    footage's); the estimator always reads the full frames."""
+    footage's); the estimator always reads the full frames. ``robot="so101"``: the arm
+    is read in 3-D by a spatial estimator (``pose3d``) and copied by the SO-101 of
+    ``ImitateVideo3D-v0``; ``servo`` is then its bus (`hardware.SO101Bus`) and mimic.csv
+    has `spatial_csv_header`'s columns."""
     from tqdm.auto import tqdm
 
     from imimic_gym.controllers import EstimateTarget, PDController
@@ -276,10 +340,12 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
         if not live and known_length:
             require_frames(len(clip), needed,
                            f"{source}, cut to its first frames," if cut_short else source, why)
-        env = RegistryObservation(
-            gym.make("ImitateVideo-v0", clip=clip, control=control, render_mode="rgb_array",
-                     render_height=preview_height),
-            estimator, keep_frame=False, **params)
+        scene = (gym.make("ImitateVideo-v0", clip=clip, control=control,
+                          render_mode="rgb_array", render_height=preview_height)
+                 if robot is None else
+                 gym.make("ImitateVideo3D-v0", clip=clip, robot=robot,
+                          render_mode="rgb_array", render_height=preview_height))
+        env = RegistryObservation(scene, estimator, keep_frame=False, **params)
     except BaseException:  # release the camera or file before the error goes up
         if hasattr(clip.frames, "close"):
             clip.frames.close()
@@ -296,10 +362,13 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
     started = time.perf_counter()
     with (out / "mimic.csv").open("w", newline="", buffering=1) as table:
         rows = csv.writer(table)
-        rows.writerow(csv_header(env.n))
+        spec = None if robot is None else imitate_env(env).arm
+        rows.writerow(csv_header(env.n) if spec is None
+                      else spatial_csv_header(spec.joint_names))
         try:
             write_behind(out / "mimic.mp4",
-                         mimic_frames(env, controller, log, rows, servo, [show], realtime),
+                         mimic_frames(env, controller, log, rows, servo, [show], realtime,
+                                      robot=spec),
                          clip.fps)
         except CTRL_C as error:
             if not is_ctrl_c(error):
@@ -347,8 +416,10 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
         "skipped_frames": skipped,
         "ended": ended,
     }
-    if servo is not None:
+    if servo is not None and robot is None:
         summary["servo_commands_sent"], summary["servo_errors"] = servo.sent, servo.errors
+    if robot is not None:
+        summary["robot"] = robot
     (out / "mimic.json").write_text(json.dumps(summary, indent=2) + "\n")
     require_frames(frames, 0 if stopped or live else needed, source, why)
     return summary

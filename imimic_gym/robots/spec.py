@@ -15,6 +15,8 @@ class RobotSpec(Protocol):
 
     Attributes:
         name: what the robot is called (``"planar"``, ``"so101"``).
+        joint_names: its joints' names, in qpos and actuator order (LeRobot's for the
+            SO-101).
         joint_ranges: one (low, high) per joint, rad, in qpos and actuator order.
         control: how its actuators are driven: ``"position"``, ``"velocity"`` or
             ``"torque"`` (an action of -1..1 maps onto each actuator's ctrl range).
@@ -24,6 +26,9 @@ class RobotSpec(Protocol):
 
     @property
     def name(self) -> str: ...
+
+    @property
+    def joint_names(self) -> tuple[str, ...]: ...
 
     @property
     def joint_ranges(self) -> tuple[tuple[float, float], ...]: ...
