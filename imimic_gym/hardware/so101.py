@@ -190,7 +190,7 @@ class SO101Bus:
         self.start_raw = present
         self._goal = {name: self._clamp(name, raw) for name, raw in present.items()}
         try:
-            self._send_goal()
+            self._send_goal(self._goal)
             self._torque_on = True  # from here on, close() releases whatever was enabled
             for name in SO101_JOINTS:
                 self._write_acknowledged(name, TORQUE_ENABLE, 1)
@@ -215,9 +215,10 @@ class SO101Bus:
         """PING all, compare stored calibration, read present positions (steps)."""
         missing = [name for name in SO101_JOINTS if not self._ping(name)]
         if len(missing) == len(SO101_JOINTS):
+            ids = ", ".join(str(self._ids[name]) for name in missing)
             raise ServosNotAnsweringError(
-                f"{self.port}: no servo answered at {self.baud} baud (is the arm powered, "
-                f"the port the bus adapter's?)", missing)
+                f"{self.port}: no servo answered (ids {ids}) at {self.baud} baud: is the arm "
+                f"powered, and the port its bus adapter's?", missing)
         if missing:
             listed = ", ".join(f"{self._ids[name]} ({name})" for name in missing)
             raise ServosNotAnsweringError(f"{self.port}: no answer from servo id(s) {listed}",
@@ -231,9 +232,10 @@ class SO101Bus:
             if stored != expected:
                 raise CalibrationMismatchError(
                     f"{self.port}: servo {motor.id} ({name}) holds range {stored[0]}..{stored[1]}"
-                    f", homing offset {stored[2]}; the calibration file "
-                    f"{self.calibration.source or ''} says {expected[0]}..{expected[1]}, "
-                    f"{expected[2]} (wrong file, or run LeRobot once to write it)")
+                    f", homing offset {stored[2]}; the calibration "
+                    f"({self.calibration.source or 'given'}) says {expected[0]}..{expected[1]},"
+                    f" {expected[2]} (another arm's file, or one LeRobot has not written to "
+                    f"the servos yet)")
             present[name] = self._read(name, PRESENT_POSITION.address, 2)
         for name, raw in present.items():
             off_by = abs(raw - self._clamp(name, raw))
@@ -281,17 +283,16 @@ class SO101Bus:
                     last = self._goal[name]
                     goal[name] = min(last + self._max_step_raw,
                                      max(last - self._max_step_raw, target))
+        self._send_goal(goal)
         self._goal = goal
-        self._send_goal()
         return self.last_goal()
 
     def _clamp(self, name: str, raw: int) -> int:
         motor = self.calibration.motors[name]
         return min(motor.range_max, max(motor.range_min, raw))
 
-    def _send_goal(self) -> None:
-        assert self._goal is not None
-        self._send(sync_write_packet(GOAL_POSITION, {self._ids[name]: self._goal[name]
+    def _send_goal(self, goal: Mapping[str, int]) -> None:
+        self._send(sync_write_packet(GOAL_POSITION, {self._ids[name]: goal[name]
                                                      for name in SO101_JOINTS}))
 
     # -- closing ------------------------------------------------------------------------

@@ -183,11 +183,12 @@ class FeetechBusEmulator:
         problem = self._check(packet)
         if problem:
             return self._fail(f"{problem}: {packet_bytes.hex(' ')}", buffer)
+        absent = packet.servo_id in self.missing_ids
         with self._changed:
             self.received.append(packet)
-            answer = self._apply(packet)
+            answer = None if absent else self._apply(packet)
             self._changed.notify_all()
-        if answer is not None and not self.silent and packet.servo_id not in self.missing_ids:
+        if answer is not None and not self.silent:
             status = bytes((packet.servo_id, len(answer) + 2, 0)) + answer
             os.write(self.controller, b"\xff\xff" + status + bytes((_sum_check(status),)))
         return True
@@ -246,6 +247,8 @@ class FeetechBusEmulator:
             self._store(memory, packet.params[0], packet.params[1:])
             return b""
         for servo_id, value in packet.sync_values().items():
+            if servo_id in self.missing_ids:
+                continue
             self._store(self.memory[servo_id], packet.params[0],
                         value.to_bytes(packet.params[1], "little"))
         return None

@@ -200,7 +200,8 @@ def test_a_silent_port_is_named_and_gets_no_write(calibration) -> None:
     with FeetechBusEmulator(calibration, silent=True) as emulator:
         bus = open_bus(emulator, calibration, tries=1)
         with pytest.raises(ServosNotAnsweringError,
-                           match=f"{emulator.port}: no servo answered at 1000000 baud"):
+                           match=rf"{emulator.port}: no servo answered \(ids 1, 2, 3, 4, 5, "
+                                 r"6\) at 1000000 baud: is the arm powered"):
             bus.connect()
         assert [p.instruction for p in emulator.received] == [PING] * 6
         assert emulator.writes() == [] and emulator.errors == []
@@ -239,7 +240,7 @@ def test_a_calibration_of_another_arm_is_refused_without_writing(calibration,
         emulator.set_register(3, 11, 3100)  # the arm's elbow_flex range ends at 3100
         with pytest.raises(CalibrationMismatchError,
                            match=r"servo 3 \(elbow_flex\) holds range 881..3100, homing offset "
-                                 r"1105; the calibration file .*my_follower.json says "
+                                 r"1105; the calibration \(.*my_follower.json\) says "
                                  r"881..3070, 1105"):
             open_bus(emulator, calibration).connect()
         assert emulator.writes() == [] and emulator.errors == []
