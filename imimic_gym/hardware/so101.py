@@ -124,9 +124,8 @@ class SO101Bus:
         on_exit = on_exit.replace("-", "_")
         if on_exit not in _ON_EXIT:
             raise ValueError(f"on_exit must be 'torque_off' or 'hold', got {on_exit!r}")
-        max_step_raw = math.floor(max_step_deg * _STEPS_PER_DEG) if max_step_deg > 0 else 0
-        if not (math.isfinite(max_step_deg) and max_step_raw >= 1):
-            raise ValueError(f"max_step_deg must be at least one step "
+        if not (math.isfinite(max_step_deg) and max_step_deg * _STEPS_PER_DEG >= 1):
+            raise ValueError(f"max_step_deg must be finite and at least one step "
                              f"({1 / _STEPS_PER_DEG:.3f} degrees), got {max_step_deg}")
         if not timeout_s > 0:
             raise ValueError(f"timeout_s must be positive, got {timeout_s}")
@@ -135,7 +134,7 @@ class SO101Bus:
         self.port, self.calibration, self.baud = port, calibration, baud
         self.max_step_deg, self.on_exit = max_step_deg, on_exit
         self.timeout_s, self.tries = timeout_s, tries
-        self._max_step_raw = max_step_raw
+        self._max_step_raw = math.floor(max_step_deg * _STEPS_PER_DEG)  # whole steps
         self._dry_log: TextIO | None = (sys.stdout if dry_run is True
                                         else dry_run if dry_run is not False else None)
         self._ids = calibration.ids()
@@ -169,7 +168,8 @@ class SO101Bus:
             ServosNotAnsweringError: servos that did not answer (none answered: the message
                 says so).
             CalibrationMismatchError: a servo's stored limits or offset are not the file's.
-            StartOutOfRangeError: a joint is more than one step outside its range.
+            StartOutOfRangeError: a joint stands more than ``max_step_deg`` outside its
+                range (within that, its first goal is the range's end).
             BusError: other protocol failures (garbled answers, servo error bits).
         In every case nothing was written to the bus, or the torque was released again.
         """

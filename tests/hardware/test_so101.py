@@ -302,9 +302,10 @@ def test_a_vanished_port_raises_on_send_and_close_only_logs(emulator, calibratio
 def test_bad_settings_are_named(calibration) -> None:
     with pytest.raises(ValueError, match="on_exit must be 'torque_off' or 'hold', got 'off'"):
         SO101Bus("/dev/null", calibration, on_exit="off")
-    with pytest.raises(ValueError, match=r"max_step_deg must be at least one step \(0.088 "
-                                         r"degrees\), got 0.05"):
+    with pytest.raises(ValueError, match=r"max_step_deg must be finite and at least one step "
+                                         r"\(0\.088 degrees\), got 0\.05"):
         SO101Bus("/dev/null", calibration, max_step_deg=0.05)
-    with pytest.raises(ValueError, match="max_step_deg must be at least one step"):
-        SO101Bus("/dev/null", calibration, max_step_deg=math.nan)
+    for bad in (math.nan, math.inf, -4.0):
+        with pytest.raises(ValueError, match=f"max_step_deg must be finite.*got {bad}"):
+            SO101Bus("/dev/null", calibration, max_step_deg=bad)
     assert SO101Bus("/dev/null", calibration, on_exit="torque-off").on_exit == "torque_off"
