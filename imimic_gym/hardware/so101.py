@@ -94,7 +94,7 @@ class CalibrationMismatchError(BusError):
 
 
 class StartOutOfRangeError(BusError):
-    """A joint stands further outside its calibrated range than one step can bring back."""
+    """A joint stands further outside its calibrated range than one ``max_step_deg`` step."""
 
 
 class SO101Bus:
