@@ -76,7 +76,7 @@ def test_connect_reads_everything_before_any_write(emulator, calibration) -> Non
 
 def test_known_targets_arrive_as_lerobots_steps(emulator, calibration) -> None:
     targets = {"shoulder_pan": 30.0, "shoulder_lift": 0.0, "elbow_flex": -10.0,
-               "wrist_flex": 12.0, "wrist_roll": -180.5 + 200, "gripper": 25.0}
+               "wrist_flex": 12.0, "wrist_roll": 19.5, "gripper": 25.0}
     with open_bus(emulator, calibration, max_step_deg=360.0) as bus:
         sent = bus.send(targets)
         goal = goals_received(emulator, 2)[-1]
