@@ -35,7 +35,7 @@ __all__ = [
     "MotorCalibration",
     "SO101Calibration",
     "calibration_dir",
-    "calibration_path",
+    "calibration_paths",
     "find_calibration",
     "load_calibration",
     "parse_calibration",
@@ -47,7 +47,10 @@ GRIPPER = "gripper"
 STEPS_PER_TURN = 4096          # the STS3215's encoder resolution
 _MAX_STEP = STEPS_PER_TURN - 1  # LeRobot's max_res: 360 degrees span 4095 steps
 _FIELDS = ("id", "drive_mode", "homing_offset", "range_min", "range_max")
-ROBOT_TYPE = "so101_follower"
+# The folders under <calibration dir>/robots/ where LeRobot saves a follower's file, newest
+# layout first: LeRobot 0.5 merged the SO-100 and SO-101 into one robot named so_follower;
+# earlier releases kept so101_follower.
+ROBOT_FOLDERS = ("so_follower", "so101_follower")
 
 
 class CalibrationError(ValueError):
@@ -189,22 +192,27 @@ def calibration_dir() -> Path:
     return Path(os.path.expandvars(hf_home)).expanduser() / "lerobot" / "calibration"
 
 
-def calibration_path(robot_id: str) -> Path:
-    """The file ``lerobot-calibrate --robot.type=so101_follower --robot.id=ROBOT_ID`` wrote."""
-    return calibration_dir() / "robots" / ROBOT_TYPE / f"{robot_id}.json"
+def calibration_paths(robot_id: str) -> list[Path]:
+    """Where ``lerobot-calibrate --robot.type=so101_follower --robot.id=ROBOT_ID`` saves the
+    file, newest LeRobot first: .../robots/so_follower/ROBOT_ID.json, then
+    .../robots/so101_follower/ROBOT_ID.json."""
+    return [calibration_dir() / "robots" / folder / f"{robot_id}.json"
+            for folder in ROBOT_FOLDERS]
 
 
 def find_calibration(robot_id: str) -> SO101Calibration:
-    """Load the calibration LeRobot keeps for the follower ``robot_id``.
+    """Load the calibration LeRobot keeps for the follower ``robot_id``, from the first of
+    `calibration_paths` that exists.
 
     Raises:
-        CalibrationError: as `load_calibration`; a missing file names the command that
-            makes it.
+        CalibrationError: as `load_calibration`; no file names the places looked in and the
+            command that makes one.
     """
-    path = calibration_path(robot_id)
-    if not path.is_file():
-        raise CalibrationError(
-            f"{path}: no calibration for robot id '{robot_id}' (make it with lerobot-calibrate "
-            f"--robot.type={ROBOT_TYPE} --robot.port=PORT --robot.id={robot_id})")
-    return load_calibration(path)
-
+    paths = calibration_paths(robot_id)
+    for path in paths:
+        if path.is_file():
+            return load_calibration(path)
+    raise CalibrationError(
+        f"{paths[0]}: no calibration for robot id '{robot_id}' (nor in {paths[1].parent}); "
+        f"make it with lerobot-calibrate --robot.type=so101_follower --robot.port=PORT "
+        f"--robot.id={robot_id}")

@@ -41,6 +41,7 @@ __all__ = [
     "checksum",
     "decode_sign_magnitude",
     "describe_packet",
+    "encode_value",
     "instruction_packet",
     "ping_packet",
     "read_packet",

@@ -94,7 +94,7 @@ class CalibrationMismatchError(BusError):
 
 
 class StartOutOfRangeError(BusError):
-    """A joint stands further outside its calibrated range than one step can bring back."""
+    """A joint stands further outside its calibrated range than one ``max_step_deg`` step."""
 
 
 class SO101Bus:
@@ -279,6 +279,9 @@ class SO101Bus:
         if trust > 0:
             for name, value in wanted.items():
                 if math.isfinite(value):
+                    # Past a full turn every target lies outside the range: bounding it
+                    # first keeps huge values from overflowing int() in to_raw.
+                    value = min(360.0, max(-360.0, value))
                     target = self._clamp(name, self.calibration.to_raw(name, value))
                     last = self._goal[name]
                     goal[name] = min(last + self._max_step_raw,

@@ -8,7 +8,7 @@ import pytest
 from imimic_gym.hardware import (
     SO101_JOINTS,
     CalibrationError,
-    calibration_path,
+    calibration_paths,
     find_calibration,
     load_calibration,
 )
@@ -123,31 +123,44 @@ def test_not_json_and_no_file(tmp_path) -> None:
     assert isinstance(CalibrationError("x"), ValueError)
 
 
+@pytest.fixture
+def lerobot_env(monkeypatch):
+    """No LeRobot or Hugging Face variable of the user's leaks in."""
+    for name in ("HF_LEROBOT_CALIBRATION", "HF_LEROBOT_HOME", "HF_HOME", "XDG_CACHE_HOME"):
+        monkeypatch.delenv(name, raising=False)
+    return monkeypatch
+
+
 @pytest.mark.parametrize(("variables", "folder"), [
     ({"HF_LEROBOT_CALIBRATION": "cal"}, "cal"),
     ({"HF_LEROBOT_HOME": "home"}, "home/calibration"),
     ({"HF_HOME": "hf"}, "hf/lerobot/calibration"),
     ({"XDG_CACHE_HOME": "xdg"}, "xdg/huggingface/lerobot/calibration"),
 ])
-def test_found_where_lerobot_keeps_it(monkeypatch, tmp_path, calibration_file, variables,
+def test_found_where_lerobot_keeps_it(lerobot_env, tmp_path, calibration_file, variables,
                                       folder) -> None:
-    for name in ("HF_LEROBOT_CALIBRATION", "HF_LEROBOT_HOME", "HF_HOME", "XDG_CACHE_HOME"):
-        monkeypatch.delenv(name, raising=False)
     for name, value in variables.items():
-        monkeypatch.setenv(name, str(tmp_path / value))
-    expected = tmp_path / folder / "robots" / "so101_follower" / "my_follower.json"
-    assert calibration_path("my_follower") == expected
-    expected.parent.mkdir(parents=True)
-    expected.write_text(calibration_file.read_text())
-    assert find_calibration("my_follower").source == expected
-    with pytest.raises(CalibrationError, match=r"no calibration for robot id 'other' "
-                       r"\(make it with lerobot-calibrate --robot.type=so101_follower"):
+        lerobot_env.setenv(name, str(tmp_path / value))
+    robots = tmp_path / folder / "robots"
+    assert calibration_paths("my_follower") == [robots / "so_follower" / "my_follower.json",
+                                                robots / "so101_follower" / "my_follower.json"]
+    with pytest.raises(CalibrationError, match=r"so_follower/other\.json: no calibration for "
+                       r"robot id 'other' \(nor in .*so101_follower\); make it with "
+                       r"lerobot-calibrate --robot.type=so101_follower"):
         find_calibration("other")
+    # An older LeRobot's folder...
+    older = robots / "so101_follower" / "my_follower.json"
+    older.parent.mkdir(parents=True)
+    older.write_text(calibration_file.read_text())
+    assert find_calibration("my_follower").source == older
+    # ...gives way to the newer one's.
+    newer = robots / "so_follower" / "my_follower.json"
+    newer.parent.mkdir(parents=True)
+    newer.write_text(calibration_file.read_text())
+    assert find_calibration("my_follower").source == newer
 
 
-def test_the_default_is_the_users_cache(monkeypatch, tmp_path) -> None:
-    for name in ("HF_LEROBOT_CALIBRATION", "HF_LEROBOT_HOME", "HF_HOME", "XDG_CACHE_HOME"):
-        monkeypatch.delenv(name, raising=False)
-    monkeypatch.setenv("HOME", str(tmp_path))
-    assert calibration_path("arm") == (tmp_path / ".cache/huggingface/lerobot/calibration/robots"
-                                       "/so101_follower/arm.json")
+def test_the_default_is_the_users_cache(lerobot_env, tmp_path) -> None:
+    lerobot_env.setenv("HOME", str(tmp_path))
+    assert calibration_paths("arm")[0] == (tmp_path / ".cache/huggingface/lerobot/calibration"
+                                           "/robots/so_follower/arm.json")
