@@ -24,3 +24,5 @@ __version__ = "0.1.0"
 
 # One episode is one clip and the env truncates at its end, so no TimeLimit is registered.
 register(id="ImitateVideo-v0", entry_point="imimic_gym.envs.imitate_video:ImitateVideoEnv")
+register(id="ImitateVideo3D-v0",
+         entry_point="imimic_gym.envs.imitate_video_3d:ImitateVideo3DEnv")

@@ -70,7 +70,8 @@ class EstimatorEntry:
         photos: reads each frame alone, so it can score single photos (`imimic eval
             --photos`); the frame-differencing estimators need a video.
         spatial: reads the arm in 3-D (an `ArmPose` per frame) and follows only spatial
-            clips (`EstimatorContext.spatial`); ``links`` does not apply to it.
+            clips (`EstimatorContext.spatial`); ``links`` does not apply to it. The oracle
+            (``needs_truth``) reads whatever truth the env gives, on either kind.
     """
 
     name: str
@@ -95,10 +96,10 @@ class EstimatorEntry:
         if self.spatial and not context.spatial:
             return (f"estimator {self.name!r} reads the arm in 3-D; this clip is planar "
                     f"({_numbers((context.n_links,))})")
-        if context.spatial and not self.spatial:
+        if context.spatial and not self.spatial and not self.needs_truth:
             return (f"estimator {self.name!r} gives planar joint angles; this clip's arm "
                     f"moves in 3-D")
-        if not self.spatial and context.n_links not in self.links:
+        if not (self.spatial or context.spatial) and context.n_links not in self.links:
             return (f"estimator {self.name!r} follows {self.links_text}; "
                     f"this clip has {context.n_links}")
         if self.demonstrators is not None and context.demonstrator not in self.demonstrators:
