@@ -217,3 +217,8 @@ def test_smooth_motion_in_front_moves_the_joints_smoothly_and_exactly():
         robot_arm_directions(SPEC, q), (pose.upper_arm, pose.forearm), strict=True))
         for q, pose in zip(targets, path, strict=True)]
     assert max(errors) < 0.1
+
+
+def test_a_fixed_value_outside_its_range_is_refused():
+    with pytest.raises(ValueError, match="wrist_roll must be inside its joint range"):
+        DirectionRetargeter(SPEC, wrist_roll=3.0)
