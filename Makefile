@@ -25,7 +25,7 @@ $(VENV)/.installed: pyproject.toml Makefile
 	python=$$($(SHELL) tools/pick_python.sh '$(PYTHON)') && "$$python" -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet torch==2.13.0
-	$(BIN)/python -m pip install --quiet -e ".[dev,pose,ray]"
+	$(BIN)/python -m pip install --quiet -e ".[dev,pose,ray,ik]"
 	$(BIN)/python -m pip install --quiet --no-deps $(MEDIAPIPE)
 	touch $@
 

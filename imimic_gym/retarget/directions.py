@@ -60,9 +60,8 @@ class DirectionRetargeter:
     per rad of joint motion, so the targets move continuously: the pan is held where the
     upper arm points along the pan axis (any pan fits there), and a solution is never
     swapped for a distant one that fits only slightly better; and no joint moves more
-    than ``max_step`` rad from ``previous`` (an STS3215 turns about 270 degrees a
-    second: 9 a frame at 30 fps), so where the robot must swing to the other side of
-    the pole to follow, it swings there over several frames instead of flipping.
+    than ``max_step`` rad from ``previous``, so where the robot must swing its pan half
+    a turn to follow, it swings over several frames instead of flipping.
     ``forearm_weight`` is how much the forearm's direction counts beside the upper arm
     and the flexion (a tie-break: the bend side, and which of two equal shoulders).
     """

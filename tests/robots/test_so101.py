@@ -123,3 +123,8 @@ def test_the_position_servo_reaches_a_target_in_half_a_second():
     run(model, data, 0.5)  # simulated seconds
     assert np.degrees(np.abs(data.qpos - target)).max() < 1.5
     assert np.abs(data.qvel).max() < 0.05
+
+
+def test_forward_kinematics_names_a_wrong_shape():
+    with pytest.raises(ValueError, match=r"q must have shape \(6,\), got \(5,\)"):
+        SPEC.forward_kinematics(np.zeros(5))
