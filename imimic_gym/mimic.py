@@ -43,6 +43,7 @@ from imimic_gym.clips.video import require_frames
 from imimic_gym.clips.video_writer import write_video
 from imimic_gym.envs.imitate_video import imitate_env
 from imimic_gym.estimators.registry import get_estimator
+from imimic_gym.hardware.so101 import PortLostError as RobotLinkLost
 from imimic_gym.interrupts import CTRL_C, is_ctrl_c
 from imimic_gym.rollout import Observer, Step, Trajectory, episode
 from imimic_gym.wrappers import EstimatorObservation, RegistryObservation
@@ -374,6 +375,8 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
             if not is_ctrl_c(error):
                 raise
             ended = "stopped by Ctrl-C"
+        except RobotLinkLost as error:  # the robot is gone: end the run, keep the outputs
+            ended = f"stopped: {error}"
         finally:
             wall = time.perf_counter() - started
             bar.close()

@@ -119,14 +119,24 @@ def _open_bus(args: argparse.Namespace) -> Any:
     try:
         calibration = (load_calibration(args.calibration) if args.calibration is not None
                        else find_calibration(args.robot_id))
-        bus = SO101Bus(args.port or "(dry run)", calibration, max_step_deg=args.max_step_deg,
-                       on_exit=args.on_exit, dry_run=args.dry_run)
-        bus.connect()
-    except (CalibrationError, BusError, ValueError) as error:
+    except CalibrationError as error:
         raise CommandError(f"imimic mimic: {error}") from None
-    print(f"  SO-101 on {'a dry run (packets printed, no port)' if args.dry_run else args.port}"
-          f": at most {args.max_step_deg:g} degrees a frame, on exit "
-          f"{args.on_exit.replace('_', ' ')}")
+    log = None
+    if args.dry_run:  # the packets go to a file, not through the progress bar
+        Path(args.out).mkdir(parents=True, exist_ok=True)
+        log = (Path(args.out) / "bus.log").open("w", buffering=1)
+    try:
+        bus = SO101Bus(args.port or "(dry run)", calibration, max_step_deg=args.max_step_deg,
+                       on_exit=args.on_exit, dry_run=log or False)
+        bus.connect()
+    except (BusError, ValueError) as error:
+        if log is not None:
+            log.close()
+        raise CommandError(f"imimic mimic: {error}") from None
+    where = (f"a dry run: the packets go to {Path(args.out) / 'bus.log'}" if args.dry_run
+             else args.port)
+    print(f"  SO-101 on {where}; at most {args.max_step_deg:g} degrees a frame; on exit, "
+          f"{args.on_exit}")
     return bus
 
 
@@ -197,6 +207,9 @@ def _mimic(args: argparse.Namespace) -> int:
     print(f"{summary['ended']}: wrote {out / 'mimic.mp4'}, {out / 'angles.png'}, "
           f"{out / 'mimic.csv'}, {out / 'mimic.json'}")
     print_table({k: v for k, v in summary.items() if k not in ("source",)})
+    if summary["ended"].startswith("stopped: "):  # the robot's port was lost mid-run
+        print(f"imimic mimic: {summary['ended']}", file=sys.stderr)
+        return 1
     # Stopped early, as every command stopped by Ctrl-C: not the success a following
     # command expects.
     return 130 if summary["ended"] == "stopped by Ctrl-C" else 0

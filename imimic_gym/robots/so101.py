@@ -50,7 +50,11 @@ _SERVO = "0.1 0.1 0.1 1"
 _MJCF = """<mujoco model="so101">
   <compiler angle="radian" autolimits="true"/>
   <option timestep="{timestep}" integrator="implicitfast"/>
-  <visual><global offwidth="640" offheight="480"/></visual>
+  <visual>
+    <global offwidth="640" offheight="480"/>
+    <quality shadowsize="0" offsamples="0"/>
+    <headlight ambient="0.35 0.35 0.35" diffuse="0.5 0.5 0.5"/>
+  </visual>
   <default>
     <geom contype="0" conaffinity="0" rgba="{yellow}"/>
     <joint damping="{damping}" armature="{armature}" frictionloss="{frictionloss}"/>
@@ -59,8 +63,12 @@ _MJCF = """<mujoco model="so101">
   </default>
   <worldbody>
     <light pos="0.3 0.4 1.2" dir="-0.2 -0.3 -1"/>
-    <geom name="floor" type="plane" size="0.6 0.6 0.01" rgba="0.85 0.85 0.82 1"/>
-    <camera name="robot" pos="0.9 0 0.45" xyaxes="0 1 0 -0.333 0 0.943" fovy="55"/>
+    <!-- Thin boxes, not planes: the software renderer draws planes as many lit quads. -->
+    <geom name="floor" type="box" pos="0 0 -0.005" size="0.6 0.6 0.005" rgba="0.62 0.6 0.58 1"/>
+    <geom name="backdrop" type="box" pos="-0.35 0 0.5" size="0.005 1.2 0.6" rgba="0.78 0.8 0.84 1"/>
+    <!-- In front of the robot, facing it: the robot's left is the picture's right, as a
+         person facing the camera shows their left arm on the right (the mirror mapping). -->
+    <camera name="robot" pos="0.72 0 0.33" xyaxes="0 1 0 -0.169 0 0.986" fovy="50"/>
     <body name="base">
       <inertial pos="0.0137 0 0.0335" mass="0.147" diaginertia="1.1e-4 1.4e-4 1.3e-4"/>
       <geom type="box" pos="0.02 0 0.024" size="0.05 0.045 0.024"/>
