@@ -32,7 +32,8 @@ from imimic_gym.spatial.arm_pose import ARM_POINTS, ArmPose, unit
 from imimic_gym.spatial.camera import Intrinsics
 from imimic_gym.spatial.smoothing import OneEuroFilter, OneEuroSettings
 
-__all__ = ["DEFAULT_DEPTH", "LIMB_RADIUS", "ONE_EURO", "SIGN_THRESHOLD", "ArmLifter",
+__all__ = ["DEFAULT_DEPTH", "LENGTH_QUANTILE", "LIMB_RADIUS", "ONE_EURO", "ONE_EURO_PIXELS",
+           "SIGN_THRESHOLD", "ArmLifter",
            "BoneLengthEstimator", "BoneLengths", "from_depth", "from_world_landmarks",
            "lift_arm", "neutral_pose", "shoulder_depth"]
 
@@ -45,8 +46,12 @@ _DEPTH_RANGE = (0.2, 50.0)  # metres: a shoulder depth is kept within this
 # half gap of their middle, its depth order does not pick the root; continuity with the
 # previous frame does.
 SIGN_THRESHOLD = 0.25
-# The lift's smoothing (`ArmLifter`).
-ONE_EURO = OneEuroSettings()
+# The lift's smoothing (`ArmLifter`): of the 3-D points (metres) and of the 2-D
+# keypoints (pixels).
+ONE_EURO = OneEuroSettings(min_cutoff=1.5, beta=4.0)
+ONE_EURO_PIXELS = OneEuroSettings(min_cutoff=1.0, beta=0.01)
+# `BoneLengthEstimator`'s quantile of the in-plane bounds.
+LENGTH_QUANTILE = 0.9
 # Limb radii (metres): a depth camera sees a limb's surface, this far in front of its axis.
 LIMB_RADIUS = np.array([0.05, 0.04, 0.03, 0.015, 0.05, 0.08, 0.08])
 _HIP_WIDTH_RATIO = 0.7  # the hips' keypoints' distance / the shoulders'
@@ -251,7 +256,8 @@ class BoneLengthEstimator:
     of its length). Before then, the prior.
     """
 
-    def __init__(self, prior: BoneLengths, quantile: float = 0.9, min_frames: int = 20,
+    def __init__(self, prior: BoneLengths, quantile: float = LENGTH_QUANTILE,
+                 min_frames: int = 20,
                  limits: tuple[float, float] = (0.8, 1.4), memory: int = 3000) -> None:
         if not 0.0 < quantile <= 1.0:
             raise ValueError(f"quantile must be in (0, 1], got {quantile!r}")
@@ -284,34 +290,44 @@ class BoneLengthEstimator:
 class ArmLifter:
     """The bone-length lift over a clip: `lift_arm` per frame, with the person's lengths
     refined as it goes (`BoneLengthEstimator`, one per arm), continuity from the frame
-    before, and a One Euro filter on the 3-D points (`smoothing.OneEuroFilter`).
+    before, and One Euro filters (`smoothing.OneEuroFilter`) on the 2-D keypoints before
+    the lift (a bone near the image plane turns its pixel noise into depth, one-sided, so
+    that noise is best taken out before) and on the lifted 3-D points.
 
     Args:
         intrinsics: the camera's.
         fps: frames/s, the step between calls when no time is given.
         lengths: the prior (None: `BoneLengths()`, an average adult).
         refine: refine the arm's lengths over the clip.
-        smoothing: the One Euro settings (None: no smoothing).
+        smoothing: the One Euro settings of the 3-D points (metres; None: none).
+        pixel_smoothing: those of the 2-D keypoints (pixels; None: none).
         sign_threshold: see `SIGN_THRESHOLD`.
+        length_quantile: `BoneLengthEstimator`'s quantile.
     """
 
     def __init__(self, intrinsics: Intrinsics, fps: float = 30.0,
                  lengths: BoneLengths | None = None, refine: bool = True,
                  smoothing: OneEuroSettings | None = ONE_EURO,
-                 sign_threshold: float = SIGN_THRESHOLD) -> None:
+                 pixel_smoothing: OneEuroSettings | None = ONE_EURO_PIXELS,
+                 sign_threshold: float = SIGN_THRESHOLD,
+                 length_quantile: float = LENGTH_QUANTILE) -> None:
         if not (math.isfinite(fps) and fps > 0):
             raise ValueError(f"fps must be a positive number, got {fps!r}")
         self.intrinsics, self.fps, self.refine = intrinsics, float(fps), refine
         self.prior = lengths if lengths is not None else BoneLengths()
-        self.smoothing, self.sign_threshold = smoothing, sign_threshold
-        self.estimators = {side: BoneLengthEstimator(self.prior) for side in ("left", "right")}
+        self.smoothing, self.pixel_smoothing = smoothing, pixel_smoothing
+        self.sign_threshold = sign_threshold
+        self.estimators = {side: BoneLengthEstimator(self.prior, quantile=length_quantile)
+                           for side in ("left", "right")}
         self.filter = OneEuroFilter(smoothing)
+        self.pixel_filter = OneEuroFilter(pixel_smoothing)
         self.reset()
 
     def reset(self) -> None:
         for estimator in self.estimators.values():
             estimator.reset()
         self.filter.reset()
+        self.pixel_filter.reset()
         self.previous: ArmPose | None = None
         self.time: float | None = None
         self.calls = 0
@@ -323,23 +339,26 @@ class ArmLifter:
     def __call__(self, side: str, pixels: np.ndarray, confidence: np.ndarray,
                  depth: np.ndarray | None = None, time_s: float | None = None) -> ArmPose:
         """The next reading's pose (arguments as `lift_arm`'s; ``time_s``: its time in
-        the video, s, None: one frame after the last call)."""
+        the video, s, None: one frame after the last call). The pose's ``pixels`` are
+        the keypoints as given."""
+        pixels, confidence = _check_inputs(side, pixels, confidence)
         now = self.calls / self.fps if time_s is None else float(time_s)
         self.calls += 1
         previous = self.previous if (self.previous is not None
                                      and self.previous.side == side) else None
-        if previous is None:
+        dt = now - self.time if self.time is not None else 0.0
+        if previous is None or not dt > 0:  # another arm, or time went back: start afresh
             self.filter.reset()
-        pose, bounds = _lift(side, pixels, confidence, depth, self.intrinsics,
+            self.pixel_filter.reset()
+            dt = 1.0 / self.fps
+        smoothed = (self.pixel_filter.filter(pixels, dt) if self.pixel_smoothing is not None
+                    else pixels)
+        pose, bounds = _lift(side, smoothed, confidence, depth, self.intrinsics,
                              self.lengths(side), None, previous, self.sign_threshold)
         self.estimators[side].observe(bounds)
-        if self.smoothing is not None:
-            dt = now - self.time if self.time is not None else 1.0 / self.fps
-            if not dt > 0:
-                self.filter.reset()
-                dt = 1.0 / self.fps
-            points = self.filter.filter(pose.points, dt)
-            pose = ArmPose(side, points, pose.confidence, pose.pixels, pose.trust)
+        points = (self.filter.filter(pose.points, dt) if self.smoothing is not None
+                  else pose.points)
+        pose = ArmPose(side, points, pose.confidence, pixels, pose.trust)
         self.previous, self.time = pose, now
         return pose
 
