@@ -269,24 +269,29 @@ def run_synthetic(clips: int, noise_px: float, depth_noise: float,
               f"{np.median(fore):.2f} p95 {np.percentile(fore, 95):.2f} deg")
 
 
+_NUMBERS = {"threshold": "sign_threshold", "quantile": "length_quantile",
+            "noise": "keypoint_noise", "margin": "sign_margin"}
+
+
 def parse_settings(text: list[str] | None) -> Settings:
     """Settings of the lift, each ``KEY=VALUE[;KEY=VALUE...]`` with keys ``points`` and
     ``pixels`` (MIN_CUTOFF,BETA or none: the One Euro filters), ``threshold`` (the sign
-    threshold) and ``quantile`` (the length quantile); none given: the defaults."""
+    threshold), ``quantile`` (the length quantile) and ``noise`` (the keypoint noise),
+    ``margin`` (the sign margin);
+    none given: the defaults."""
     if not text:
         return [{}]
     settings: Settings = []
     for item in text:
         setting: dict[str, Any] = {}
-        for part in item.split(";"):
+        for part in filter(None, item.split(";")):
             key, value = part.split("=")
             if key in ("points", "pixels"):
                 name = "smoothing" if key == "points" else "pixel_smoothing"
                 setting[name] = (None if value == "none" else
                                  OneEuroSettings(*(float(v) for v in value.split(","))))
-            elif key in ("threshold", "quantile"):
-                setting["sign_threshold" if key == "threshold" else "length_quantile"] = \
-                    float(value)
+            elif key in _NUMBERS:
+                setting[_NUMBERS[key]] = float(value)
             else:
                 raise SystemExit(f"unknown setting {key!r}")
         settings.append(setting)
