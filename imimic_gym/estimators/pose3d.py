@@ -20,6 +20,8 @@ camera, the arm hanging straight down at their side; trust 0). Never NaN.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -61,11 +63,14 @@ class Pose3DEstimator:
             this is not used (the last pose held, trust 0).
         source: "lift", "depth" or "world" (module docstring).
         model: a `PoseModel` to use (None: a new one, in video mode).
+        lift: keyword arguments for the lift's `spatial.lift.ArmLifter` (its smoothing,
+            sign threshold, length quantile) over its defaults.
     """
 
     def __init__(self, fps: float = 30.0, intrinsics: Intrinsics | None = None,
                  arm: str = "auto", min_confidence: float = 0.5, source: str = "lift",
-                 model: PoseModel | None = None) -> None:
+                 model: PoseModel | None = None, lift: Mapping[str, Any] | None = None
+                 ) -> None:
         if not (math.isfinite(fps) and fps > 0):
             raise ValueError(f"fps must be a positive number, got {fps!r}")
         if not 0.0 <= min_confidence <= 1.0:
@@ -74,6 +79,7 @@ class Pose3DEstimator:
             raise ValueError(f"source must be one of {SOURCES}, got {source!r}")
         self.fps, self.intrinsics, self.arm = float(fps), intrinsics, arm
         self.min_confidence, self.source = min_confidence, source
+        self.lift = dict(lift or {})
         self.chooser = ArmChooser(fps, arm, min_confidence=min_confidence)
         self.model = model if model is not None else PoseModel(video=True)
         self.lifter: ArmLifter | None = None
@@ -93,7 +99,7 @@ class Pose3DEstimator:
                   else self.intrinsics if (self.intrinsics.width, self.intrinsics.height)
                   == (width, height) else self.intrinsics.scaled(width, height))
         if self.lifter is None or self.lifter.intrinsics != camera:
-            self.lifter = ArmLifter(camera, self.fps)
+            self.lifter = ArmLifter(camera, self.fps, **self.lift)
         return camera
 
     def update(self, frame: np.ndarray, depth: np.ndarray | None = None) -> ArmPose:

@@ -32,9 +32,10 @@ from imimic_gym.spatial.arm_pose import ARM_POINTS, ArmPose, unit
 from imimic_gym.spatial.camera import Intrinsics
 from imimic_gym.spatial.smoothing import OneEuroFilter, OneEuroSettings
 
-__all__ = ["DEFAULT_DEPTH", "LIMB_RADIUS", "ONE_EURO", "SIGN_THRESHOLD", "ArmLifter",
-           "BoneLengthEstimator", "BoneLengths", "from_depth", "from_world_landmarks",
-           "lift_arm", "neutral_pose", "shoulder_depth"]
+__all__ = ["DEFAULT_DEPTH", "KEYPOINT_NOISE", "LENGTH_QUANTILE", "LIMB_RADIUS", "ONE_EURO",
+           "SIGN_MARGIN", "SIGN_THRESHOLD", "ArmLifter", "BoneLengthEstimator",
+           "BoneLengths", "from_depth", "from_world_landmarks", "lift_arm", "neutral_pose",
+           "out_of_plane", "shoulder_depth"]
 
 _S, _E, _W, _H, _OS, _HIP, _OHIP = range(len(ARM_POINTS))
 # Where the shoulders' depth cannot be told (shoulders on one pixel): a person at arm's
@@ -43,10 +44,16 @@ DEFAULT_DEPTH = 2.5
 _DEPTH_RANGE = (0.2, 50.0)  # metres: a shoulder depth is kept within this
 # Where the model's depth of a bone's far end lies within this share of the two roots'
 # half gap of their middle, its depth order does not pick the root; continuity with the
-# previous frame does.
+# previous frame does; so too within `SIGN_MARGIN` metres (the model's own depth noise).
 SIGN_THRESHOLD = 0.25
-# The lift's smoothing (`ArmLifter`).
-ONE_EURO = OneEuroSettings()
+SIGN_MARGIN = 0.05
+# The lift's smoothing of the 3-D points (`ArmLifter`).
+ONE_EURO = OneEuroSettings(min_cutoff=5.0, beta=5.0)
+# The pose model's noise on an arm bone's 2-D length, as a share of the length
+# (`out_of_plane`; `ArmLifter`'s).
+KEYPOINT_NOISE = 0.04
+# `BoneLengthEstimator`'s quantile of the in-plane bounds.
+LENGTH_QUANTILE = 0.8
 # Limb radii (metres): a depth camera sees a limb's surface, this far in front of its axis.
 LIMB_RADIUS = np.array([0.05, 0.04, 0.03, 0.015, 0.05, 0.08, 0.08])
 _HIP_WIDTH_RATIO = 0.7  # the hips' keypoints' distance / the shoulders'
@@ -143,39 +150,70 @@ class _Bone:
     missed: bool
 
 
+_OUT_OF_PLANE_GRID = np.linspace(0.0, 1.0, 201)
+
+
+def out_of_plane(ratio: float, noise: float) -> float:
+    """A bone's expected out-of-plane share (|its extent along the line of sight| / its
+    length, in [0, 1)) given ``ratio``, its in-plane extent over its length as measured,
+    when that ratio carries Gaussian noise of standard deviation ``noise`` and the bone
+    points anywhere on the sphere (the share uniform in [0, 1]). With no noise, Taylor's
+    sqrt(1 - ratio^2) (0 past 1). Noise makes a bone near the image plane measure
+    sometimes longer, sometimes shorter than its length; the plain formula then turns
+    every short reading into a tilt, so it over-tilts such bones, which this does not."""
+    if noise <= 0.0:
+        return math.sqrt(max(1.0 - ratio * ratio, 0.0))
+    in_plane = np.sqrt(1.0 - _OUT_OF_PLANE_GRID ** 2)
+    weights = np.exp(-0.5 * ((ratio - in_plane) / noise) ** 2)
+    total = float(weights.sum())
+    if not total > 0.0:  # far from any bone this long: the nearest reading's share
+        return 0.0 if ratio > 1.0 else math.sqrt(max(1.0 - ratio * ratio, 0.0))
+    return min(float(weights @ _OUT_OF_PLANE_GRID) / total, 0.999)
+
+
 def _solve_bone(start: np.ndarray, ray: np.ndarray, length: float,
                 model_delta: float | None, previous: np.ndarray | None,
-                sign_threshold: float) -> _Bone:
+                sign_threshold: float, noise: float = 0.0, sign_margin: float = 0.0
+                ) -> _Bone:
     """The point t * ``ray`` (t > 0) at ``length`` from ``start``. ``model_delta``: the
     pose model's depth of the far end minus the start's, metres (None: unknown);
-    ``previous``: the bone's unit direction in the previous frame (None: none)."""
+    ``previous``: the bone's unit direction in the previous frame (None: none);
+    ``noise``: the bone's in-plane ratio's noise (`out_of_plane`; 0: Taylor's exact
+    solution, the far end at exactly ``length``); ``sign_threshold`` and ``sign_margin``:
+    see `SIGN_THRESHOLD` and `SIGN_MARGIN`."""
     a = float(ray @ ray)
-    b = float(ray @ start)
-    c = float(start @ start) - length * length
-    lower_bound = math.sqrt(max(float(start @ start) - b * b / a, 0.0))
-    disc = b * b - a * c
-    if disc <= 0.0:  # the ray misses (or grazes) the sphere: the bone lies in the plane
-        return _Bone(max(b / a, _DEPTH_RANGE[0]) * ray, lower_bound, disc < 0.0)
-    half_gap = math.sqrt(disc) / a
-    near, far = b / a - half_gap, b / a + half_gap
+    middle = float(ray @ start) / a  # t of the ray's point nearest the start
+    lower_bound = math.sqrt(max(float(start @ start) - a * middle * middle, 0.0))
+    missed = lower_bound > length
+    if noise > 0.0 and length > 0.0:
+        share = out_of_plane(lower_bound / length, noise)
+        # Along the ray, the extent that gives the bone this out-of-plane share.
+        half_gap = lower_bound * share / math.sqrt(1.0 - share * share) / math.sqrt(a)
+    else:
+        disc = middle * middle - (float(start @ start) - length * length) / a
+        half_gap = math.sqrt(disc) if disc > 0.0 else 0.0
+    if half_gap <= 0.0:  # the bone lies in the image plane
+        return _Bone(max(middle, _DEPTH_RANGE[0]) * ray, lower_bound, missed)
+    near, far = middle - half_gap, middle + half_gap
     if near <= _DEPTH_RANGE[0]:  # the camera inside the sphere: only the far root is real
-        return _Bone(far * ray, lower_bound, False)
+        return _Bone(far * ray, lower_bound, missed)
     roots = (near * ray, far * ray)
     # The model's depth of the far end against the two roots' middle (the bone in the
     # image plane): nearer is the root toward the camera, farther the one away.
-    evidence = None if model_delta is None else start[2] + model_delta - b / a
-    unsure = evidence is None or abs(evidence) < sign_threshold * half_gap
+    evidence = None if model_delta is None else start[2] + model_delta - middle
+    unsure = evidence is None or abs(evidence) < max(sign_threshold * half_gap, sign_margin)
     if unsure and previous is not None:
         choice = max(range(2), key=lambda i: float(unit(roots[i] - start) @ previous))
     else:
         choice = int(evidence is not None and evidence > 0.0)
-    return _Bone(roots[choice], lower_bound, False)
+    return _Bone(roots[choice], lower_bound, missed)
 
 
 def lift_arm(side: str, pixels: np.ndarray, confidence: np.ndarray,
              depth: np.ndarray | None, intrinsics: Intrinsics, lengths: BoneLengths,
              depth_of_shoulder: float | None = None, previous: ArmPose | None = None,
-             sign_threshold: float = SIGN_THRESHOLD) -> ArmPose:
+             sign_threshold: float = SIGN_THRESHOLD, sign_margin: float = 0.0,
+             keypoint_noise: float = 0.0) -> ArmPose:
     """One frame's bone-length lift (module docstring).
 
     Args:
@@ -188,18 +226,23 @@ def lift_arm(side: str, pixels: np.ndarray, confidence: np.ndarray,
         depth_of_shoulder: the shoulder's z (metres); None: `shoulder_depth`.
         previous: the previous frame's pose of this arm, for continuity (None: none).
         sign_threshold: see `SIGN_THRESHOLD`.
+        sign_margin: see `SIGN_MARGIN` (0: the model's order counts however small).
+        keypoint_noise: the noise of an arm bone's measured in-plane length, as a share
+            of its length (`out_of_plane`); 0: Taylor's exact solution (each far end at
+            exactly its bone's length).
 
     Returns:
         The `ArmPose` (camera frame), ``trust`` the least confidence of shoulder, elbow
         and wrist. Finite for any finite input.
     """
     return _lift(side, pixels, confidence, depth, intrinsics, lengths, depth_of_shoulder,
-                 previous, sign_threshold)[0]
+                 previous, sign_threshold, sign_margin, keypoint_noise)[0]
 
 
 def _lift(side: str, pixels: np.ndarray, confidence: np.ndarray, depth: np.ndarray | None,
           intrinsics: Intrinsics, lengths: BoneLengths, depth_of_shoulder: float | None,
-          previous: ArmPose | None, sign_threshold: float) -> tuple[ArmPose, np.ndarray]:
+          previous: ArmPose | None, sign_threshold: float, sign_margin: float,
+          keypoint_noise: float) -> tuple[ArmPose, np.ndarray]:
     """`lift_arm`, and the (3,) in-plane lower bounds of the arm's bones (metres)."""
     pixels, confidence = _check_inputs(side, pixels, confidence)
     if depth is not None:
@@ -223,14 +266,15 @@ def _lift(side: str, pixels: np.ndarray, confidence: np.ndarray, depth: np.ndarr
         direction = unit(previous.points[end] - previous.points[start])
         return direction if direction.any() else None
 
-    def solve(start: int, end: int, length: float) -> _Bone:
+    def solve(start: int, end: int, length: float, noise: float = 0.0) -> _Bone:
         bone = _solve_bone(points[start], rays[end], length, model_delta(start, end),
-                           previous_direction(start, end), sign_threshold)
+                           previous_direction(start, end), sign_threshold, noise,
+                           sign_margin)
         points[end] = bone.end
         return bone
 
     solve(_S, _OS, lengths.shoulder_width)
-    bounds = np.array([solve(start, end, getattr(lengths, name)).lower_bound
+    bounds = np.array([solve(start, end, getattr(lengths, name), keypoint_noise).lower_bound
                        for start, end, name in _ARM_BONES])
     side_to_hip = math.hypot(lengths.torso,
                              0.5 * lengths.shoulder_width * (1.0 - _HIP_WIDTH_RATIO))
@@ -251,7 +295,8 @@ class BoneLengthEstimator:
     of its length). Before then, the prior.
     """
 
-    def __init__(self, prior: BoneLengths, quantile: float = 0.9, min_frames: int = 20,
+    def __init__(self, prior: BoneLengths, quantile: float = LENGTH_QUANTILE,
+                 min_frames: int = 20,
                  limits: tuple[float, float] = (0.8, 1.4), memory: int = 3000) -> None:
         if not 0.0 < quantile <= 1.0:
             raise ValueError(f"quantile must be in (0, 1], got {quantile!r}")
@@ -284,34 +329,48 @@ class BoneLengthEstimator:
 class ArmLifter:
     """The bone-length lift over a clip: `lift_arm` per frame, with the person's lengths
     refined as it goes (`BoneLengthEstimator`, one per arm), continuity from the frame
-    before, and a One Euro filter on the 3-D points (`smoothing.OneEuroFilter`).
+    before, and a One Euro filter (`smoothing.OneEuroFilter`) on the lifted 3-D points
+    (and, if asked, one on the 2-D keypoints before the lift).
 
     Args:
         intrinsics: the camera's.
         fps: frames/s, the step between calls when no time is given.
         lengths: the prior (None: `BoneLengths()`, an average adult).
         refine: refine the arm's lengths over the clip.
-        smoothing: the One Euro settings (None: no smoothing).
+        smoothing: the One Euro settings of the 3-D points (metres; None: none).
+        pixel_smoothing: those of the 2-D keypoints (pixels; None: none, the default:
+            on synthetic clips its lag cost more than its smoothing gave).
         sign_threshold: see `SIGN_THRESHOLD`.
+        sign_margin: see `SIGN_MARGIN`.
+        keypoint_noise: see `lift_arm` (`KEYPOINT_NOISE`).
+        length_quantile: `BoneLengthEstimator`'s quantile.
     """
 
     def __init__(self, intrinsics: Intrinsics, fps: float = 30.0,
                  lengths: BoneLengths | None = None, refine: bool = True,
                  smoothing: OneEuroSettings | None = ONE_EURO,
-                 sign_threshold: float = SIGN_THRESHOLD) -> None:
+                 pixel_smoothing: OneEuroSettings | None = None,
+                 sign_threshold: float = SIGN_THRESHOLD, sign_margin: float = SIGN_MARGIN,
+                 keypoint_noise: float = KEYPOINT_NOISE,
+                 length_quantile: float = LENGTH_QUANTILE) -> None:
         if not (math.isfinite(fps) and fps > 0):
             raise ValueError(f"fps must be a positive number, got {fps!r}")
         self.intrinsics, self.fps, self.refine = intrinsics, float(fps), refine
         self.prior = lengths if lengths is not None else BoneLengths()
-        self.smoothing, self.sign_threshold = smoothing, sign_threshold
-        self.estimators = {side: BoneLengthEstimator(self.prior) for side in ("left", "right")}
+        self.smoothing, self.pixel_smoothing = smoothing, pixel_smoothing
+        self.sign_threshold, self.sign_margin = sign_threshold, sign_margin
+        self.keypoint_noise = keypoint_noise
+        self.estimators = {side: BoneLengthEstimator(self.prior, quantile=length_quantile)
+                           for side in ("left", "right")}
         self.filter = OneEuroFilter(smoothing)
+        self.pixel_filter = OneEuroFilter(pixel_smoothing)
         self.reset()
 
     def reset(self) -> None:
         for estimator in self.estimators.values():
             estimator.reset()
         self.filter.reset()
+        self.pixel_filter.reset()
         self.previous: ArmPose | None = None
         self.time: float | None = None
         self.calls = 0
@@ -323,23 +382,27 @@ class ArmLifter:
     def __call__(self, side: str, pixels: np.ndarray, confidence: np.ndarray,
                  depth: np.ndarray | None = None, time_s: float | None = None) -> ArmPose:
         """The next reading's pose (arguments as `lift_arm`'s; ``time_s``: its time in
-        the video, s, None: one frame after the last call)."""
+        the video, s, None: one frame after the last call). The pose's ``pixels`` are
+        the keypoints as given."""
+        pixels, confidence = _check_inputs(side, pixels, confidence)
         now = self.calls / self.fps if time_s is None else float(time_s)
         self.calls += 1
         previous = self.previous if (self.previous is not None
                                      and self.previous.side == side) else None
-        if previous is None:
+        dt = now - self.time if self.time is not None else 0.0
+        if previous is None or not dt > 0:  # another arm, or time went back: start afresh
             self.filter.reset()
-        pose, bounds = _lift(side, pixels, confidence, depth, self.intrinsics,
-                             self.lengths(side), None, previous, self.sign_threshold)
+            self.pixel_filter.reset()
+            dt = 1.0 / self.fps
+        smoothed = (self.pixel_filter.filter(pixels, dt) if self.pixel_smoothing is not None
+                    else pixels)
+        pose, bounds = _lift(side, smoothed, confidence, depth, self.intrinsics,
+                             self.lengths(side), None, previous, self.sign_threshold,
+                             self.sign_margin, self.keypoint_noise)
         self.estimators[side].observe(bounds)
-        if self.smoothing is not None:
-            dt = now - self.time if self.time is not None else 1.0 / self.fps
-            if not dt > 0:
-                self.filter.reset()
-                dt = 1.0 / self.fps
-            points = self.filter.filter(pose.points, dt)
-            pose = ArmPose(side, points, pose.confidence, pose.pixels, pose.trust)
+        points = (self.filter.filter(pose.points, dt) if self.smoothing is not None
+                  else pose.points)
+        pose = ArmPose(side, points, pose.confidence, pixels, pose.trust)
         self.previous, self.time = pose, now
         return pose
 
