@@ -261,6 +261,10 @@ SHORT = ["--episodes", "1", "--frames", "20"]
      "--results {folder} is a folder; expected a file to write"),
     (["bench", "don", "--json", "{folder}"],
      "--json {folder} is a folder; expected a file to write"),
+    # Refused for root too, whose permissions /proc grants but whose writes it refuses.
+    (["eval", "--json", "/proc/o.json", *SHORT], "--json /proc/o.json: /proc is not writable"),
+    (["eval", "--photos", "{tmp}/arms.json", "--images", "{tmp}", "--json", "/proc/o.json"],
+     "--json /proc/o.json: /proc is not writable"),
 ])
 def test_an_output_that_cannot_be_written_is_refused_before_any_work(
         argv, message, tmp_path, capsys, monkeypatch) -> None:
