@@ -316,6 +316,18 @@ def test_ctrl_c_during_eval_keeps_the_results_that_had_finished(suite, tmp_path)
         assert out.count(" rmse ") == len(kept) - 1, said  # the first row was read above
 
 
+def test_output_whose_reader_has_gone_ends_quietly() -> None:
+    """`imimic scenarios | head -1`: the reader closes the pipe (here before the first
+    write, so that every write fails): no message, exit code 141 as for Unix tools."""
+    read_end, write_end = os.pipe()
+    run = subprocess.Popen([sys.executable, "-m", "imimic_gym.cli", "scenarios"],
+                           stdout=write_end, stderr=subprocess.PIPE, text=True)
+    os.close(write_end)
+    os.close(read_end)
+    _, err = run.communicate(timeout=120)
+    assert (run.returncode, err) == (141, "")
+
+
 def test_ctrl_c_inside_a_compiled_call_counts_as_ctrl_c() -> None:
     """Ctrl-C during DON's numba loops reaches Python as SystemError("... returned a result
     with an exception set"), once per compiled call it interrupts, over the
