@@ -337,6 +337,8 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
     cut_short = getattr(clip.frames, "cut_short", False)
     why = (f"{estimator.upper()} (window {needed - 1})" if needed > 1
            else f"{estimator.upper()}")
+    if needed < 2:  # an estimator that reads a frame alone: the env's first step needs two
+        needed, why = 2, "one step (from a frame to the next)"
     try:
         if not live and known_length:
             require_frames(len(clip), needed,

@@ -71,6 +71,15 @@ def test_a_video_shorter_than_dons_window_is_named(servo_clip, tmp_path, capsys)
     assert re.search(message, capsys.readouterr().err)
 
 
+def test_a_one_frame_video_is_one_line_from_the_command(servo_clip, tmp_path, capsys) -> None:
+    """The pose model reads a frame alone, but a run steps from a frame to the next."""
+    path = write_video(tmp_path / "one.mp4", servo_clip.frames[:1], servo_clip.fps)
+    assert main(["mimic", "--video", str(path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.splitlines() == [f"imimic mimic: {path} has 1 frames, fewer than the 2 that "
+                                "one step (from a frame to the next) needs"]
+
+
 def test_a_missing_video_is_one_line_from_the_command(tmp_path, capsys) -> None:
     assert main(["mimic", "--video", str(tmp_path / "gone.mp4")]) == 2
     err = capsys.readouterr().err

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import select
 import sys
 from pathlib import Path
 from typing import Any
@@ -277,6 +279,30 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+# Exit code when the reader of the output went away (`imimic scenarios | head -1`): what a
+# shell reports for Unix tools that SIGPIPE ends, 128 + 13, so `set -o pipefail` sees the
+# same as for them.
+STOPPED_READING = 141
+
+
+def _output_closed() -> bool:
+    """Whether standard output is a pipe whose reader has gone (another pipe may have
+    broken); if so, standard output is pointed at the null device, so that Python's flush
+    at exit does not fail again on what is still buffered for it."""
+    try:
+        fd = sys.stdout.fileno()
+        poller = select.poll()
+    except (AttributeError, OSError, ValueError):  # no file descriptor, or no poll()
+        return False
+    poller.register(fd, select.POLLOUT)
+    if not any(events & select.POLLERR for _, events in poller.poll(0)):
+        return False
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, fd)
+    os.close(devnull)
+    return True
+
+
 def main(argv: list[str] | None = None) -> int:
     from imimic_gym.clips.cache import CacheSettingError
 
@@ -289,6 +315,11 @@ def main(argv: list[str] | None = None) -> int:
     except CommandError as error:
         print(error, file=sys.stderr)
         raise
+    except BrokenPipeError as error:  # whoever read the output stopped (| head): no error
+        if not _output_closed():
+            print(f"{command}: {error}", file=sys.stderr)
+            return 2
+        return STOPPED_READING
     except OSError as error:  # a folder or file the user named (--out, --video, ...)
         print(f"{command}: {error}", file=sys.stderr)
         return 2

@@ -18,7 +18,7 @@ from imimic_gym.arms import ArmSpec, Control
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import ClipSpec, get_scenario, robot_for_clip
 from imimic_gym.clips.types import Clip, depth_to_frame
-from imimic_gym.envs.arguments import check_arguments
+from imimic_gym.envs.arguments import check_arguments, check_sources
 from imimic_gym.estimators.types import Estimate, EstimatorContext
 from imimic_gym.kinematics import wrap_angle
 from imimic_gym.render import OffscreenRenderer
@@ -155,6 +155,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
                         n_frames=n_frames, n_links=n_links, tracking_weight=tracking_weight,
                         ctrl_cost_weight=ctrl_cost_weight,
                         reset_noise_scale=reset_noise_scale)
+        check_sources(clip, annotations, clip_seeds)
         n_links = None if n_links is None else int(n_links)
         self.control, self.modality, self.render_mode = control, modality, render_mode
         self.render_height = render_height
