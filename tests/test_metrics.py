@@ -73,3 +73,14 @@ def test_bootstrap_interval_brackets_the_statistic_and_is_seeded() -> None:
     low, high = bootstrap_interval(values, np.median, level=0.5)
     assert low < 49.5 < high
     assert np.isnan(bootstrap_interval([])[0])
+
+
+def test_lag_leaves_out_frames_without_truth() -> None:
+    t = np.arange(120) / 30.0
+    truth = np.sin(2 * np.pi * 0.7 * t)
+    follower = np.roll(truth, 3)
+    gappy = truth.copy()
+    gappy[40:55] = np.nan  # frames without a label
+    assert lag_frames(truth, follower) == 3
+    assert lag_frames(gappy, follower) == 3
+    assert lag_frames(np.full(10, np.nan), np.zeros(10)) == 0

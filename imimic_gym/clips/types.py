@@ -58,6 +58,9 @@ class ClipTruth:
         occlusion: (T,) float32 in [0, 1], fraction of the moving links' pixels hidden
             by an occluder.
         keypoint_names: K names, e.g. ("shoulder", "elbow", "wrist", "hand_tip").
+        labelled: (T,) bool, the frames whose truth was read (annotated, or read by the
+            pose model); the others' angles are filled in between them and are no truth.
+            None: every frame (rendered truth).
     """
 
     angles: np.ndarray
@@ -67,6 +70,7 @@ class ClipTruth:
     visible: np.ndarray
     occlusion: np.ndarray
     keypoint_names: tuple[str, ...]
+    labelled: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         t, n = self.angles.shape if self.angles.ndim == 2 else (None, None)
@@ -77,6 +81,12 @@ class ClipTruth:
         _check("truth.keypoints", self.keypoints, (t, k, 2), np.float32)
         _check("truth.visible", self.visible, (t, k), np.bool_)
         _check("truth.occlusion", self.occlusion, (t,), np.float32)
+        if self.labelled is not None:
+            _check("truth.labelled", self.labelled, (t,), np.bool_)
+
+    def has_label(self, frame: int) -> bool:
+        """Whether frame ``frame``'s angles were read rather than filled in."""
+        return self.labelled is None or bool(self.labelled[frame])
 
     @property
     def n_joints(self) -> int:
