@@ -40,7 +40,8 @@ def lag_frames(truth: np.ndarray, follower: np.ndarray, max_lag: int = 30) -> in
 
     Both signals lose their means; the correlation at each shift k in [-max_lag, max_lag]
     is normalised by the overlap, summed over joints, and the best k returned (positive:
-    the follower is late). A flat signal (no motion) has no defined lag: returns 0.
+    the follower is late). Frames where ``truth`` is NaN (no truth) are left out of the
+    means and of every overlap. A flat signal (no motion) has no defined lag: returns 0.
     """
     a = np.asarray(truth, dtype=np.float64).reshape(len(truth), -1)
     b = np.asarray(follower, dtype=np.float64).reshape(len(follower), -1)
@@ -48,14 +49,21 @@ def lag_frames(truth: np.ndarray, follower: np.ndarray, max_lag: int = 30) -> in
         raise ValueError(
             f"truth and follower must have the same shape, got {a.shape} and {b.shape}"
         )
-    a, b = a - a.mean(axis=0), b - b.mean(axis=0)
+    known = np.asarray(np.isfinite(a).all(axis=1), dtype=bool)
+    if not known.any():
+        return 0
+    a = np.where(known[:, None], a - a[known].mean(axis=0), 0.0)
+    b = b - b[known].mean(axis=0)
     max_lag = min(max_lag, len(a) - 2)
     if max_lag < 0 or not (np.any(a) and np.any(b)):
         return 0
     best_lag, best = 0, -np.inf
     for k in range(-max_lag, max_lag + 1):
-        x, y = (a[: len(a) - k], b[k:]) if k >= 0 else (a[-k:], b[: len(b) + k])
-        score = float(np.sum(x * y)) / len(x)
+        if k >= 0:
+            x, y, pairs = a[: len(a) - k], b[k:], known[: len(a) - k]
+        else:
+            x, y, pairs = a[-k:], b[: len(b) + k], known[-k:]
+        score = float(np.sum(x * y)) / max(int(pairs.sum()), 1)
         if score > best + 1e-12:
             best_lag, best = k, score
     return best_lag

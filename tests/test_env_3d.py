@@ -39,7 +39,7 @@ def test_spaces_are_the_so101s_and_the_reward_sums_its_terms() -> None:
     assert env.action_space.shape == (6,) and obs["qpos"].shape == (6,)
     assert env.unwrapped.arm.joint_names == JOINT_NAMES
     for _ in range(3):
-        obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        obs, reward, terminated, _, info = env.step(env.action_space.sample())
         assert reward == pytest.approx(info["reward_tracking"] + info["reward_ctrl"], abs=0)
         assert not terminated and np.isfinite(reward)
         errors = np.radians([info["upper_arm_direction_error_deg"],

@@ -102,3 +102,14 @@ def test_spatial_metrics_leave_out_and_count_frames_without_reading():
     assert (out["frames"], out["frames_without_reading"]) == (5, 1)
     none = spatial_metrics(down, down, flexion, down, down, flexion, np.zeros(t, bool))
     assert none["elbow_flexion_rmse_deg"] is None and none["frames_without_reading"] == 5
+
+
+def test_lag_leaves_out_frames_without_truth() -> None:
+    t = np.arange(120) / 30.0
+    truth = np.sin(2 * np.pi * 0.7 * t)
+    follower = np.roll(truth, 3)
+    gappy = truth.copy()
+    gappy[40:55] = np.nan  # frames without a label
+    assert lag_frames(truth, follower) == 3
+    assert lag_frames(gappy, follower) == 3
+    assert lag_frames(np.full(10, np.nan), np.zeros(10)) == 0

@@ -94,6 +94,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 
 def cmd_clip(args: argparse.Namespace) -> int:
+    from imimic_gym.clips.annotations import write_clip_truth
     from imimic_gym.clips.cache import load_clip
     from imimic_gym.clips.scenarios import get_scenario
     from imimic_gym.clips.video_writer import write_video
@@ -108,21 +109,8 @@ def cmd_clip(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     stem = out / f"{args.scenario}-seed{args.seed}"
     write_video(stem.with_suffix(".mp4"), clip.frames, clip.fps)
-    truth = clip.truth
-    assert truth is not None
-    stem.with_suffix(".json").write_text(json.dumps({
-        "meta": clip.meta,
-        "fps": clip.fps,
-        "units": {"angles": "rad", "angular_velocity": "rad/s",
-                  "angular_acceleration": "rad/s^2", "keypoints": "pixels (x, y)"},
-        "keypoint_names": list(truth.keypoint_names),
-        "angles": truth.angles.tolist(),
-        "angular_velocity": truth.angular_velocity.tolist(),
-        "angular_acceleration": truth.angular_acceleration.tolist(),
-        "keypoints": truth.keypoints.round(2).tolist(),
-        "visible": truth.visible.tolist(),
-        "occlusion": truth.occlusion.round(4).tolist(),
-    }) + "\n")
+    assert clip.truth is not None
+    write_clip_truth(stem.with_suffix(".json"), clip.truth, clip.meta, clip.fps)
     print(f"wrote {stem.with_suffix('.mp4')} and {stem.with_suffix('.json')} "
           f"({len(clip)} frames, {clip.width}x{clip.height}, {clip.fps:g} fps)")
     return 0
@@ -240,7 +228,9 @@ def build_parser() -> argparse.ArgumentParser:
         "clip", help="render a scenario to an mp4 plus a truth JSON",
         description="Render a scenario (or take it from the cache) and write "
                     "<scenario>-seed<k>.mp4 and .json with the per-frame ground truth: joint "
-                    "angles, velocities, accelerations, keypoints, visibility, occlusion.",
+                    "angles, velocities, accelerations, keypoints, visibility, occlusion. "
+                    "ImitateVideo-v0(clip=<the mp4>, annotations=<the json>) reads them "
+                    "back.",
     )
     _add_clip_choice(clip, names, "default")
     clip.add_argument("--out", default="clips_out", help="output folder (default: %(default)s)")

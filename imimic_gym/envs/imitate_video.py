@@ -58,7 +58,16 @@ class ImitateVideoEnv(gym.Env, EzPickle):
     `info["has_truth"]` is False, `reward_tracking` is 0, and `info` has no
     `target_angles` or `tracking_error_deg` (unknown: not zero, and not NaN, which would
     make equal episodes compare unequal). The robot is then built from the
-    clip's `meta` (`reference_direction`, `joint_ranges`). A `Clip` whose frames are a
+    clip's `meta` (`reference_direction`, `joint_ranges`). The same holds for each frame
+    of an annotated video that has no label (a frame the annotations leave out, or where
+    the pose model gave no reading): `has_truth` False and `label_filled` True for that
+    frame, no tracking reward, and no part of the metrics (`rollout.Trajectory`); the
+    truth's angles there (`target_angles(i)`) are filled in between the labelled frames,
+    something to steer by, not to score against. A video annotated with a person's arm
+    (COCO keypoints or ``"pose"``) gets a robot with a human arm's joint ranges
+    (`estimators.pose.human_joint_ranges`), as ``imimic mimic`` builds for a person; the
+    truth JSON that ``imimic clip`` writes beside its mp4 gives the rendered clip's own
+    robot and truth. A `Clip` whose frames are a
     `FrameStream` (`clips.video.stream_video`) is read forward only: one episode, no
     second reset, and `StreamEndedError` from `step` if the source ends early.
 
@@ -85,9 +94,11 @@ class ImitateVideoEnv(gym.Env, EzPickle):
     - `reward_ctrl = -ctrl_cost_weight * sum_i a_i^2`.
     `info` also holds `tracking_error_deg` (RMS over joints of the wrapped error, degrees),
     `frame_index`, `target_angles` (rad), `occlusion` (fraction of the moving links
-    hidden), `clip_seed`, `has_truth` (False: no ground truth, tracking reward 0) and,
-    with truth, `truth_source`: `"render"` (exact), `"annotations"` (a COCO file) or
-    `"pose"` (the pose model's pseudo-truth, `annotations="pose"`).
+    hidden), `clip_seed`, `has_truth` (False: no ground truth for this frame, tracking
+    reward 0) and, for a clip with truth, `truth_source`: `"render"` (exact, also from
+    `imimic clip`'s truth JSON), `"annotations"` (a COCO file) or `"pose"` (the pose
+    model's pseudo-truth, `annotations="pose"`), and `label_filled` (True: this frame has
+    no label; its truth is filled in and not scored).
 
     ## Starting State
     The robot starts at the demonstrator's first-frame angles plus uniform noise of
@@ -106,7 +117,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
     |---|---|---|
     | `scenario` | `"default"` | scenario name (`imimic_gym.scenario_names()`) or a `Clip` |
     | `clip` | `None` | a video file path or a `Clip`; overrides `scenario` |
-    | `annotations` | `None` | COCO JSON of the video `clip`, or `"pose"` (pseudo-truth) |
+    | `annotations` | `None` | COCO JSON of the video `clip`, `"pose"`, or `imimic clip`'s JSON |
     | `n_links` | `None` | 1-3 moving links; `None` takes the scenario's |
     | `control` | `"position"` | `"position"`, `"velocity"` or `"torque"` actuation |
     | `modality` | `"rgb"` | `"rgb"` or `"depth"` frames in the observation |
@@ -284,7 +295,8 @@ class ImitateVideoEnv(gym.Env, EzPickle):
 
     def target_angles(self, frame_index: int) -> np.ndarray:
         """The demonstrator's true joint angles (rad) at ``frame_index`` (clamped to the
-        clip). Raises ValueError for a clip without truth."""
+        clip); on a frame without a label, filled in between the labelled ones. Raises
+        ValueError for a clip without truth."""
         if self._targets is None:
             raise ValueError(f"clip {self.clip.meta.get('path', self.clip.meta)} has no ground "
                              "truth: no target angles (load it with annotations)")
@@ -324,9 +336,10 @@ class ImitateVideoEnv(gym.Env, EzPickle):
 
     def _tracking(self) -> tuple[np.ndarray, np.ndarray] | None:
         """The demonstrator's angles in the current frame and the robot's wrapped error;
-        None without truth."""
+        None without truth for this frame."""
         assert self.frame_index is not None
-        if self._targets is None:
+        if self._targets is None or not (self.clip.truth is None
+                                         or self.clip.truth.has_label(self.frame_index)):
             return None
         target = self._targets[self.frame_index]
         return target, wrap_angle(self.data.qpos - target)
@@ -337,10 +350,11 @@ class ImitateVideoEnv(gym.Env, EzPickle):
             "frame_index": self.frame_index,
             "occlusion": float(truth.occlusion[self.frame_index]) if truth is not None else 0.0,
             "clip_seed": int(self.clip.meta.get("seed", 0)),
-            "has_truth": truth is not None,
+            "has_truth": tracking is not None,
         }
         if truth is not None:  # "render", or "annotations"/"pose" for recorded video
             info["truth_source"] = self.clip.meta.get("truth_source", "render")
+            info["label_filled"] = tracking is None
         if tracking is not None:
             target, error = tracking
             info["tracking_error_deg"] = math.degrees(math.sqrt(float(error @ error) / error.size))
