@@ -8,6 +8,7 @@ Data flow: frame -> spatial estimator -> `ArmPose` -> retargeter -> joint target
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -48,6 +49,16 @@ class RetargetedEstimator:
         self.path.reset()
         self.targets: np.ndarray | None = None
         self.last_pose: ArmPose | None = None
+
+    def caption(self) -> str:
+        """The last frame's reading in words, for the picture: the elbow's flexion and
+        the trust."""
+        pose = self.last_pose
+        if pose is None:
+            return "no reading yet"
+        seen = f"elbow {math.degrees(pose.elbow_flexion):.0f} deg" if pose.trust > 0 else \
+            "arm not seen: holding"
+        return f"{pose.side} arm, {seen}  eta {pose.trust:.2f}"
 
     def update(self, frame: np.ndarray, depth: np.ndarray | None = None) -> Estimate:
         """The joint targets for the next (H, W, 3) uint8 RGB ``frame`` (``depth``: its
