@@ -165,6 +165,13 @@ def _seeds(args: argparse.Namespace) -> tuple[int, ...]:
 
 def _print_estimator_result(result: dict) -> None:
     mean = result["mean"]
+    if "elbow_flexion_rmse_deg" in mean or "coverage" in mean:  # a spatial estimator
+        print(f"{result['scenario']:20s} {result['estimator']:12s} elbow flexion rmse "
+              f"{_shown(mean.get('elbow_flexion_rmse_deg'), 2):>6s} deg, forearm direction "
+              f"{_shown(mean.get('forearm_direction_error_deg'), 2):>6s} deg (median), upper "
+              f"arm {_shown(mean.get('upper_arm_direction_error_deg'), 2):>6s} deg, coverage "
+              f"{mean['coverage']:.2f}", flush=True)
+        return
     occluded = ""
     if "rmse_occluded_deg_prediction_on" in mean:
         occluded = (f"  occluded: {mean['rmse_occluded_deg_prediction_off']:.1f} "
