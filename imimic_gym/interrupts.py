@@ -20,11 +20,13 @@ import re
 import signal
 import sys
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from ctypes import ArgumentError
 from itertools import pairwise
 from types import FrameType
 
-__all__ = ["CTRL_C", "is_ctrl_c", "quiet_start", "restore_ctrl_c"]
+__all__ = ["CTRL_C", "is_ctrl_c", "quiet_start", "restore_ctrl_c", "unstoppable"]
 
 CTRL_C = (KeyboardInterrupt, SystemError, ArgumentError)  # what to catch; then ask is_ctrl_c
 
@@ -68,3 +70,18 @@ def restore_ctrl_c() -> None:
     """Ctrl-C raises KeyboardInterrupt again, if `quiet_start` had changed it."""
     if signal.getsignal(signal.SIGINT) is _stop_quietly:
         signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+@contextmanager
+def unstoppable() -> Iterator[None]:
+    """Ctrl-C ignored inside (in the main thread; elsewhere signals go to the main thread
+    anyway): for what must finish once started, such as releasing a robot's torque, which a
+    second Ctrl-C must not cut short."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)

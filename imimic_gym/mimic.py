@@ -44,7 +44,7 @@ from imimic_gym.clips.video_writer import write_video
 from imimic_gym.envs.imitate_video import imitate_env
 from imimic_gym.estimators.registry import get_estimator
 from imimic_gym.hardware.so101 import PortLostError as RobotLinkLost
-from imimic_gym.interrupts import CTRL_C, is_ctrl_c
+from imimic_gym.interrupts import CTRL_C, is_ctrl_c, unstoppable
 from imimic_gym.rollout import Observer, Step, Trajectory, episode
 from imimic_gym.wrappers import EstimatorObservation, RegistryObservation
 from imimic_gym.wrappers.spatial import RetargetedEstimator
@@ -386,7 +386,8 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
             if hasattr(clip.frames, "close"):
                 clip.frames.close()
             if servo is not None:
-                servo.close()
+                with unstoppable():  # a second Ctrl-C must not cut the release short
+                    servo.close()
     frames = len(log.time)
     skipped = int(getattr(getattr(clip.frames, "reader", None), "skipped_frames", 0))
     stopped = ended != "end of footage"  # by Ctrl-C: too few frames is then no error

@@ -75,3 +75,21 @@ def test_ctrl_c_while_the_command_starts_is_one_line_and_exit_130(tmp_path, laun
     assert done.returncode == 130, done.stderr[-3000:]
     assert done.stderr.strip().splitlines()[-1].endswith("stopped by Ctrl-C"), done.stderr
     assert "Traceback" not in done.stderr, done.stderr[-3000:]
+
+
+def test_unstoppable_ignores_ctrl_c_inside_and_restores_it() -> None:
+    import signal
+    import time
+
+    from imimic_gym.interrupts import unstoppable
+
+    before = signal.getsignal(signal.SIGINT)
+    finished = False
+    with unstoppable():
+        os.kill(os.getpid(), signal.SIGINT)  # handled by this (main) thread at once
+        time.sleep(0.05)
+        finished = True
+    assert finished and signal.getsignal(signal.SIGINT) is before
+    with pytest.raises(KeyboardInterrupt):
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(5)  # interrupted by the KeyboardInterrupt long before
