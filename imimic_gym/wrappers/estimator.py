@@ -137,9 +137,11 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
             return picture
         # A preview drawn smaller than the frames (render_height) scales the keypoints.
         caption = getattr(self.estimator, "caption", None)  # an estimator may say it
-        return draw_estimate(picture, self.last_estimate, self._parents,
-                             scale=picture.shape[0] / self._frame_height,
-                             caption=caption() if callable(caption) else None)
+        picture = draw_estimate(picture, self.last_estimate, self._parents,
+                                scale=picture.shape[0] / self._frame_height,
+                                caption=caption() if callable(caption) else None)
+        draw = getattr(self.estimator, "draw", None)  # and draw more (a 3-D reading)
+        return draw(picture) if callable(draw) else picture
 
     def observation(self, observation: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         self.last_estimate = self.estimator.update(observation["frame"])

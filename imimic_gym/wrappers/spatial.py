@@ -16,6 +16,7 @@ import numpy as np
 from imimic_gym.estimators.motion import PathEstimator
 from imimic_gym.estimators.types import Estimate, SpatialEstimator
 from imimic_gym.spatial.arm_pose import ArmPose
+from imimic_gym.spatial.draw import draw_side_view
 
 __all__ = ["RetargetedEstimator"]
 
@@ -59,6 +60,14 @@ class RetargetedEstimator:
         seen = f"elbow {math.degrees(pose.elbow_flexion):.0f} deg" if pose.trust > 0 else \
             "arm not seen: holding"
         return f"{pose.side} arm, {seen}  eta {pose.trust:.2f}"
+
+    def draw(self, picture: np.ndarray) -> np.ndarray:
+        """``picture`` with the last reading seen from the person's side
+        (`spatial.draw.draw_side_view`): where the arm goes toward or away from the
+        camera."""
+        if self.last_pose is None:
+            return picture
+        return draw_side_view(picture, self.last_pose)
 
     def update(self, frame: np.ndarray, depth: np.ndarray | None = None) -> Estimate:
         """The joint targets for the next (H, W, 3) uint8 RGB ``frame`` (``depth``: its
