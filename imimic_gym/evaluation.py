@@ -78,9 +78,11 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
 
 
 def evaluate_clip(scenario: str, estimator: str, seed: int, modality: str = "rgb",
-                  frames: int | None = None) -> dict[str, Any]:
-    """Score ``estimator`` on the clip of ``scenario`` with this ``seed`` (``frames`` long:
-    default the scenario's) against its truth: one row of `evaluate_estimator`.
+                  frames: int | None = None,
+                  params: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Score ``estimator`` (built with ``params``, e.g. the CNN's ``checkpoint``) on the
+    clip of ``scenario`` with this ``seed`` (``frames`` long: default the scenario's)
+    against its truth: one row of `evaluate_estimator`.
 
     ``modality="depth"`` feeds the estimator the clip's depth video as grey frames, near =
     bright, exactly as ``ImitateVideo-v0(modality="depth")`` shows it.
@@ -108,7 +110,7 @@ def evaluate_clip(scenario: str, estimator: str, seed: int, modality: str = "rgb
     truth = clip.truth.angles
     warm = round(WARM_UP_S * clip.fps)
     context = clip_context(spec, clip, modality)
-    estimates = run_estimator(build_estimator(estimator, context), images)
+    estimates = run_estimator(build_estimator(estimator, context, **(params or {})), images)
     angles = np.array([e.angles for e in estimates])
     row: dict[str, Any] = {
         "seed": seed,

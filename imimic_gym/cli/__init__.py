@@ -14,8 +14,10 @@ import imimic_gym  # registers the env, sets headless GL; and its __version__
 from imimic_gym.cli.cache import add_cache
 from imimic_gym.cli.common import (
     CommandError,
+    add_checkpoint,
     at_least,
     check_writable,
+    checkpoint_params,
     estimator_names,
     print_table,
     save_json,
@@ -50,6 +52,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from imimic_gym.rollout import run_episode
 
     check_writable("demo", "--out", args.out, folder=True)
+    params = checkpoint_params("demo", [args.estimator], args.checkpoint)
     out = Path(args.out)
     print(f"imimic demo: scenario {args.scenario}, seed {args.seed}, control {args.control}")
     args.estimator = _demo_estimator(args.estimator, args.scenario)
@@ -67,7 +70,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
         print(f"  estimator: {get_estimator(args.estimator).summary}; controller: PD on its "
               "angles")
         try:
-            env = RegistryObservation(env, args.estimator, keep_frame=False)
+            env = RegistryObservation(env, args.estimator, keep_frame=False, **params)
         except UnsupportedClipError as error:
             raise CommandError(f"imimic demo: {error}") from error
         controller = PDController(env, EstimateTarget(env))
@@ -221,6 +224,7 @@ def build_parser() -> argparse.ArgumentParser:
                            "pose-don: a real person's arm, so not the servo), or the true "
                            "angles (oracle: the control loop's upper bound, no vision); "
                            "default: don for 1 or 2 links, oracle for the others")
+    add_checkpoint(demo)
     demo.add_argument("--out", default="demo_out", help="output folder (default: %(default)s)")
     demo.set_defaults(func=cmd_demo)
 

@@ -13,10 +13,12 @@ import numpy as np
 from imimic_gym.cli.common import (
     CommandError,
     add_backend,
+    add_checkpoint,
     add_clip_seeds,
     at_least,
     check_backend,
     check_writable,
+    checkpoint_params,
     estimator_names,
     save_json,
 )
@@ -35,6 +37,10 @@ def cmd_eval(args: argparse.Namespace) -> int:
             setattr(args, name, value)
     _check_outputs(args)
     sweep = args.backend == "ray" or args.results is not None
+    if sweep and args.checkpoint:
+        raise CommandError("imimic eval: --checkpoint runs here; --backend ray and --results "
+                           "run the shipped weights")
+    args.estimator_params = checkpoint_params("eval", args.estimator, args.checkpoint)
     if args.photos or args.images:
         if sweep:
             raise CommandError("imimic eval: --photos runs here; --backend ray and --results "
@@ -81,7 +87,8 @@ def _score_alone(args: argparse.Namespace) -> tuple[list[dict], bool]:
     try:
         for pair in ((s, e) for s in args.scenario for e in args.estimator):
             for seed in _seeds(args):
-                row = evaluate_clip(*pair, seed, args.modality, args.frames)
+                row = evaluate_clip(*pair, seed, args.modality, args.frames,
+                                    args.estimator_params)
                 rows.setdefault(pair, []).append(row)
             _print_estimator_result(result(pair))
     except CTRL_C as error:
@@ -122,7 +129,7 @@ def _refuse_ignored(args: argparse.Namespace) -> None:
         ignored = ("scenario", "controller", "paper", "modality", "frames", "out")
     elif args.paper:
         mode = "--paper runs the paper's own scenarios, estimators and controllers"
-        ignored = ("scenario", "estimator", "controller", "modality")
+        ignored = ("scenario", "estimator", "controller", "modality", "checkpoint")
     elif args.controller:
         mode = "--controller runs the tracking suite on the colour video"
         ignored = ("modality",)
@@ -236,7 +243,8 @@ def _cmd_eval_photos(args: argparse.Namespace) -> int:
     results = []
     for estimator in args.estimator:
         try:
-            result = evaluate_photos(args.photos, args.images, estimator)
+            result = evaluate_photos(args.photos, args.images, estimator,
+                                     **args.estimator_params)
         except (ValueError, AnnotationError, FileNotFoundError) as error:
             raise CommandError(f"imimic eval: {error}") from error
         print(f"{estimator:10s} PCP@0.5 upper {_cell(result['pcp_upper'])}, lower "
@@ -284,7 +292,8 @@ def _suite_configs(args: argparse.Namespace) -> list:
                         or (n_links != 1 and controller == "learned")):
                     skipped.append(f"{scenario}/{estimator}/{controller}")
                     continue
-                configs.append(RunConfig(scenario, estimator, controller, seeds, args.frames))
+                configs.append(RunConfig(scenario, estimator, controller, seeds, args.frames,
+                                         tuple(args.estimator_params.items())))
                 if controller == "oracle":
                     break  # the oracle controller ignores the estimate: one run is enough
     if skipped:
@@ -372,6 +381,7 @@ def add_eval(sub: argparse._SubParsersAction, names: list[str]) -> None:
                           choices=estimator_names(),
                           help=f"default: {DEFAULTS['estimator'][0]}; oracle (the true angles) "
                                "only with --controller; not with --paper")
+    add_checkpoint(evaluate)
     evaluate.add_argument("--modality", default=None, choices=("rgb", "depth"),
                           help="estimators alone: the colour video, or the depth video as grey "
                                f"frames (default: {DEFAULTS['modality']})")
