@@ -24,6 +24,7 @@ from imimic_gym.estimators.registry import (
     get_estimator,
 )
 from imimic_gym.estimators.types import EstimatorContext
+from imimic_gym.kinematics import wrap_angle
 from imimic_gym.metrics import OCCLUDED, angle_rmse_deg, lag_frames
 
 __all__ = ["WARM_UP_S", "cannot_score", "clip_context", "evaluate_clip", "evaluate_estimator",
@@ -142,7 +143,10 @@ def _evaluate_spatial(spec: ClipSpec, clip: Clip, estimator: str, seed: int,
     forearm's and upper arm's direction errors, median and 95th percentile), frames
     without a reading left out and counted. Each RGB frame comes with its metric depth
     image, as from an RGB-D camera: the estimators that read depth (``pose3d-depth``) use
-    it, the others do not."""
+    it, the others do not. And the 2-D reading under it (the pose model's keypoints):
+    ``arm_found``, the share of frames where it reads the moving arm (the clip's side,
+    with trust), and ``elbow_2d_rmse_deg``, the elbow's angle in the image on those
+    frames against the truth's pixels."""
     from imimic_gym.estimators.registry import build_spatial_estimator
     from imimic_gym.metrics import spatial_metrics
     from imimic_gym.spatial.truth import arm_poses, clip_intrinsics
@@ -159,7 +163,13 @@ def _evaluate_spatial(spec: ClipSpec, clip: Clip, estimator: str, seed: int,
         return np.array([getattr(pose, what) for pose in which])
 
     read = np.array([pose.trust > 0 for pose in poses])
+    found = read & np.array([pose.side == clip.meta["arm_side"] for pose in poses])
+    elbow_2d = np.array([wrap_angle(p.to_planar(1)[0] - t.to_planar(1)[0])
+                         for p, t in zip(poses, truth, strict=True)])[found]
     return {"seed": seed,
+            "arm_found": float(found.mean()),
+            "elbow_2d_rmse_deg": (float(np.degrees(np.sqrt(np.mean(elbow_2d**2))))
+                                  if found.any() else None),
             **spatial_metrics(stack(poses, "upper_arm"), stack(poses, "forearm"),
                               stack(poses, "elbow_flexion"), stack(truth, "upper_arm"),
                               stack(truth, "forearm"), stack(truth, "elbow_flexion"), read),
