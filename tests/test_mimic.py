@@ -106,6 +106,19 @@ def test_a_cut_run_that_ends_early_counts_the_frames_asked_for(truncated_avi,
                                        "frames asked for")
 
 
+def test_an_intact_file_whose_container_counts_more_frames_ends_cleanly(edit_listed_mp4,
+                                                                        tmp_path,
+                                                                        capsys) -> None:
+    """An edit list drops frames the container counts (30 reported, 24 decode): no
+    "ended early", and the progress bar ends full at the frames that exist."""
+    clip = stream_video(edit_listed_mp4, reference_direction=math.pi / 2)
+    assert len(clip) == 30
+    summary = run_mimic(clip, tmp_path / "out")
+    assert summary["ended"] == "end of footage" and summary["frames"] == 24
+    bar = capsys.readouterr().err.split("\r")[-1]
+    assert "24/24" in bar and "/30" not in bar
+
+
 def test_a_run_cut_to_a_length_says_so(servo_mp4, tmp_path) -> None:
     clip = stream_video(servo_mp4, max_frames=20)
     summary = run_mimic(clip, tmp_path / "out", progress=False)

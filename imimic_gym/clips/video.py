@@ -26,6 +26,7 @@ spans the paper's 120-degree servo range centred on it (`DEFAULT_JOINT_RANGE`).
 from __future__ import annotations
 
 import math
+import subprocess
 import time
 from collections import deque
 from collections.abc import Generator, Iterator, Sequence
@@ -181,6 +182,18 @@ class VideoReader:
                 time.sleep(0.05)  # a camera that hiccups gets a moment before it is given up
         return None
 
+    def ended_early(self) -> bool:
+        """After the stream has ended: whether it held fewer frames than the container
+        reports because decoding failed (a truncated or damaged file). A file that
+        ffmpeg (imageio-ffmpeg's) decodes to the end without an error is intact: its
+        container counts frames that an edit list drops (OpenCV and ffmpeg decode fewer).
+        False for a source whose length is unknown (a camera)."""
+        if self.frame_count is None or self.frames_read + self.skipped_frames >= self.frame_count:
+            return False
+        if self.skipped_frames or "%" in Path(str(self.source)).name:
+            return True
+        return not _decodes_cleanly(Path(str(self.source)))
+
     def __iter__(self) -> Generator[np.ndarray, None, None]:
         self.open()
         try:
@@ -205,6 +218,20 @@ class VideoReader:
                 raise VideoFormatError(f"{self.name} has no frames that can be decoded{skipped}")
         finally:
             self.close()
+
+
+def _decodes_cleanly(path: Path, timeout_s: float = 600.0) -> bool:
+    """Whether ffmpeg decodes the first video stream of ``path`` to its end without an
+    error (a decode that outlasts ``timeout_s`` counts as failed)."""
+    import imageio_ffmpeg
+
+    try:
+        done = subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-nostdin", "-v", "error",
+                               "-i", str(path), "-map", "0:v:0", "-f", "null", "-"],
+                              capture_output=True, timeout=timeout_s)
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+    return done.returncode == 0 and not done.stderr.strip()
 
 
 def require_frames(count: int, needed: int, source: str, why: str) -> None:
