@@ -86,6 +86,20 @@ def test_a_missing_video_is_one_line_from_the_command(tmp_path, capsys) -> None:
     assert "cannot open video" in err and "gone.mp4: no such file" in err
 
 
+def test_a_file_that_is_no_video_is_one_line_without_ffmpegs_own(tmp_path) -> None:
+    """FFmpeg's log lines ("moov atom not found") and OpenCV's warnings stay out of the
+    one-line error (they reach file descriptor 2 directly, hence a subprocess)."""
+    (tmp_path / "notes.mp4").write_text("not a video\n")
+    done = subprocess.run([sys.executable, "-m", "imimic_gym.cli", "mimic", "--video",
+                           str(tmp_path / "notes.mp4"), "--out", str(tmp_path / "out")],
+                          capture_output=True, text=True, timeout=120,
+                          env={**os.environ, "MUJOCO_GL": "egl"})
+    assert done.returncode == 2
+    assert done.stderr.splitlines() == [f"imimic mimic: cannot open video {tmp_path}/notes.mp4: "
+                                        "OpenCV cannot decode it (not a video, or an "
+                                        "unsupported codec)"]
+
+
 def test_more_links_than_don_follows_is_refused() -> None:
     with pytest.raises(SystemExit, match="don follows 1 to 3 moving links; --links 4"):
         main(["mimic", "--video", "x.mp4", "--estimator", "don", "--links", "4"])

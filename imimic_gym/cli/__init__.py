@@ -276,6 +276,10 @@ def build_parser() -> argparse.ArgumentParser:
     bench.set_defaults(func=cmd_bench)
     add_mimic(sub)
     add_label(sub)
+    for command in sub.choices.values():
+        command.add_argument("--verbose", action="store_true",
+                             help="also show the log lines of native code (MediaPipe's pose "
+                                  "model, OpenCV's FFmpeg) on stderr")
     return parser
 
 
@@ -311,6 +315,8 @@ def main(argv: list[str] | None = None) -> int:
         restore_ctrl_c()  # a Ctrl-C from here on is caught below
         args = build_parser().parse_args(argv)
         command = f"imimic {args.command}"
+        if args.verbose:  # read by the pose model and the video reader (estimators.pose_model)
+            os.environ["IMIMIC_NATIVE_LOGS"] = "1"
         return int(args.func(args))
     except CommandError as error:
         print(error, file=sys.stderr)

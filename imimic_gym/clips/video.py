@@ -25,7 +25,9 @@ spans the paper's 120-degree servo range centred on it (`DEFAULT_JOINT_RANGE`).
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
 import subprocess
 import time
 from collections import deque
@@ -76,6 +78,25 @@ def _describe(source: str | int | Path) -> str:
     return str(source)
 
 
+@contextlib.contextmanager
+def _ffmpeg_quiet() -> Iterator[None]:
+    """OpenCV's own warnings off while a capture opens, and FFmpeg's log lines (a damaged
+    file's "Invalid NAL unit size", a non-video's "moov atom not found") off for the
+    process, unless the environment sets IMIMIC_NATIVE_LOGS (`imimic --verbose`): what
+    goes wrong is said in one line by the caller. A user's own OPENCV_FFMPEG_LOGLEVEL
+    wins; OpenCV reads it when its FFmpeg backend first opens a file."""
+    if os.environ.get("IMIMIC_NATIVE_LOGS"):
+        yield
+        return
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
+    level = cv2.utils.logging.getLogLevel()
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+    try:
+        yield
+    finally:
+        cv2.utils.logging.setLogLevel(level)
+
+
 class VideoReader:
     """Frames of a video file, image sequence, camera or stream URL, one at a time.
 
@@ -123,10 +144,12 @@ class VideoReader:
             if not pattern and path.stat().st_size == 0:
                 raise VideoOpenError(f"cannot open video {self.name}: the file is empty")
             backend = cv2.CAP_IMAGES if pattern else cv2.CAP_FFMPEG
-            capture = cv2.VideoCapture(str(path), backend)
+            with _ffmpeg_quiet():
+                capture = cv2.VideoCapture(str(path), backend)
         else:
             index = int(str(self.source)) if str(self.source).isdigit() else str(self.source)
-            capture = cv2.VideoCapture(index)
+            with _ffmpeg_quiet():
+                capture = cv2.VideoCapture(index)
         if not capture.isOpened():
             capture.release()
             reason = ("no camera answers there" if self.live
