@@ -314,6 +314,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         restore_ctrl_c()  # a Ctrl-C from here on is caught below
         args = build_parser().parse_args(argv)
+        args.argv = list(sys.argv[1:] if argv is None else argv)  # as given, to repeat it
         command = f"imimic {args.command}"
         if args.verbose:  # read by the pose model and the video reader (estimators.pose_model)
             os.environ["IMIMIC_NATIVE_LOGS"] = "1"
