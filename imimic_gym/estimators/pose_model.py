@@ -103,8 +103,9 @@ def _solution() -> Any:
         from mediapipe.python.solutions import pose
     except ImportError as error:
         raise PoseModelMissingError(
-            "the pose estimator needs MediaPipe: pip install 'imimic_gym[pose]' then "
-            f"pip install --no-deps mediapipe=={MEDIAPIPE_VERSION} (make setup does both); "
+            "the pose estimator needs MediaPipe: pip install '.[pose]' in a clone of "
+            f"imimic_gym, then pip install --no-deps mediapipe=={MEDIAPIPE_VERSION} (make "
+            f"setup does both); "
             f"{error}") from error
     return pose
 
