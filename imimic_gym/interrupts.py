@@ -2,7 +2,8 @@
 
 A Ctrl-C that lands inside a compiled numba loop (DON's layers) does not arrive as a bare
 `KeyboardInterrupt`: Python raises a `SystemError` ("returned a result with an exception
-set") over it, once per compiled call it interrupts. One that lands in a ctypes call's
+set") over it, once per compiled call it interrupts; one that stops a compiled module's
+initialisation arrives as an ImportError over it. One that lands in a ctypes call's
 argument conversion (PyOpenGL's, while the renderer opens its GL context) arrives as a
 `ctypes.ArgumentError` whose message names the KeyboardInterrupt. Catch `CTRL_C` and ask
 `is_ctrl_c`.
@@ -26,16 +27,18 @@ from types import FrameType
 
 __all__ = ["CTRL_C", "is_ctrl_c", "quiet_start", "restore_ctrl_c"]
 
-CTRL_C = (KeyboardInterrupt, SystemError, ArgumentError)  # what to catch; then ask is_ctrl_c
+# What to catch; then ask is_ctrl_c.
+CTRL_C = (KeyboardInterrupt, SystemError, ArgumentError, ImportError)
 
 # ctypes' message for an exception raised while it converted argument N.
 _CTYPES_INTERRUPTED = re.compile(r"argument \d+: KeyboardInterrupt\b")
 
 
 def is_ctrl_c(error: BaseException | None) -> bool:
-    """Whether ``error`` is Ctrl-C: a KeyboardInterrupt, SystemErrors raised over one, or
-    ctypes' ArgumentError for a KeyboardInterrupt in an argument's conversion."""
-    while isinstance(error, SystemError):
+    """Whether ``error`` is Ctrl-C: a KeyboardInterrupt, SystemErrors or ImportErrors (a
+    compiled module whose initialisation it stopped) raised over one, or ctypes'
+    ArgumentError for a KeyboardInterrupt in an argument's conversion."""
+    while isinstance(error, (SystemError, ImportError)):
         error = error.__cause__
     if isinstance(error, ArgumentError):
         return bool(_CTYPES_INTERRUPTED.match(str(error)))
@@ -43,8 +46,11 @@ def is_ctrl_c(error: BaseException | None) -> bool:
 
 
 def _stop_quietly(signum: int, frame: FrameType | None) -> None:
-    print("imimic: stopped by Ctrl-C", file=sys.stderr)
-    raise SystemExit(130)
+    """Exit at once: only imports have run, and an exception raised here would reach
+    the user as a failed import (a compiled module's initialisation wraps it)."""
+    sys.stderr.write("imimic: stopped by Ctrl-C\n")
+    sys.stderr.flush()
+    os._exit(130)
 
 
 def _is_the_command() -> bool:
