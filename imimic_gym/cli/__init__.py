@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 import imimic_gym  # registers the env, sets headless GL; and its __version__
+from imimic_gym._quiet_start import restore_ctrl_c
 from imimic_gym.cli.cache import add_cache
 from imimic_gym.cli.common import (
     CommandError,
@@ -22,7 +23,7 @@ from imimic_gym.cli.common import (
 )
 from imimic_gym.cli.evaluate import add_eval
 from imimic_gym.cli.mimic import add_label, add_mimic
-from imimic_gym.interrupts import CTRL_C, is_ctrl_c, restore_ctrl_c
+from imimic_gym.interrupts import CTRL_C, is_ctrl_c
 
 
 def _demo_estimator(requested: str | None, scenario: str) -> str:
