@@ -472,3 +472,52 @@ def test_the_checkpoint_reaches_the_cnn_in_mimic_eval_and_demo(other_cnn, tmp_pa
     demos = [json.loads((tmp_path / name / "demo" / "metrics.json").read_text())["rmse_deg"]
              for name in angles]
     assert demos[0] != demos[1]
+
+
+def test_a_row_that_ctrl_c_cut_short_is_marked(tmp_path, monkeypatch, capsys) -> None:
+    """Ctrl-C during the second of two clips (here raised where it would land): the row
+    printed over the one clip that finished says so."""
+    import imimic_gym.evaluation as evaluation
+
+    real, calls = evaluation.evaluate_clip, []
+
+    def second_interrupted(*args, **kwargs):
+        calls.append(args)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(evaluation, "evaluate_clip", second_interrupted)
+    assert main(["eval", "--scenario", "exp2-servo", "--episodes", "2", "--frames", "20",
+                 "--json", str(tmp_path / "kept.json")]) == 130
+    rows = [line for line in capsys.readouterr().out.splitlines() if " rmse " in line]
+    assert len(rows) == 1 and rows[0].endswith("(partial: stopped by Ctrl-C, 1 of 2 clips)")
+
+
+def test_ctrl_c_during_a_sweep_says_what_was_kept_and_how_to_go_on(tmp_path) -> None:
+    """A real SIGINT once a first cell is journalled: exit 130, and stderr ends with how
+    many cells had finished and the command that resumes the sweep."""
+    journal = tmp_path / "cells.jsonl"
+    argv = ["eval", "--scenario", "exp2-servo", "default", "chain-2", "--estimator", "don",
+            "--episodes", "2", "--frames", "40", "--results", str(journal)]
+    run = subprocess.Popen([sys.executable, "-m", "imimic_gym.cli", *argv],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           env={**os.environ, "MUJOCO_GL": "egl",
+                                "IMIMIC_CACHE_DIR": str(tmp_path / "cache")})
+    try:
+        deadline = time.monotonic() + 240
+        while not (journal.exists() and journal.read_text().count("\n") >= 1):
+            assert run.poll() is None and time.monotonic() < deadline, run.communicate()[1]
+            time.sleep(0.05)
+        run.send_signal(signal.SIGINT)
+        _, err = run.communicate(timeout=120)
+    finally:
+        if run.poll() is None:
+            run.kill()
+            run.communicate()
+    assert run.returncode == 130, err[-3000:]
+    kept = journal.read_text().count("\n")
+    assert 1 <= kept < 6, err[-3000:]
+    assert err.strip().splitlines()[-2:] == [
+        f"imimic eval: stopped by Ctrl-C; {kept} of 6 cells had finished, kept in {journal}; "
+        "go on with:", "  imimic " + " ".join([*argv, "--resume"])], err[-3000:]

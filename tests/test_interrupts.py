@@ -40,6 +40,20 @@ def test_ctrl_c_in_a_ctypes_calls_arguments_counts_as_ctrl_c() -> None:
     assert not is_ctrl_c(ctypes_error(TypeError("not an int")))
 
 
+def test_ctrl_c_stopping_a_compiled_modules_initialisation_counts_as_ctrl_c() -> None:
+    """A pybind11 module whose initialisation Ctrl-C stops raises ImportError
+    ("initialization failed") from the KeyboardInterrupt; any other ImportError is not."""
+    try:
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as interrupt:
+            raise ImportError("initialization failed") from interrupt
+    except ImportError as error:
+        stopped = error
+    assert isinstance(stopped, CTRL_C) and is_ctrl_c(stopped)
+    assert not is_ctrl_c(ImportError("No module named 'ray'"))
+
+
 # Run at interpreter start (sitecustomize): send this process SIGINT when the command's
 # imports reach the module named by IMIMIC_TEST_INTERRUPT_AT, i.e. inside those imports.
 SITECUSTOMIZE = '''

@@ -142,6 +142,13 @@ def test_label_says_when_a_file_holds_fewer_frames_than_it_reports(truncated_avi
     assert summary["ended"].startswith(f"footage ended early: {summary['frames']} of the 30 ")
 
 
+def test_label_takes_an_intact_file_whose_container_counts_more_frames(edit_listed_mp4,
+                                                                       tmp_path) -> None:
+    summary = label_video(edit_listed_mp4, tmp_path / "out", progress=False)
+    assert (summary["reported_frames"], summary["frames"]) == (30, 24)
+    assert summary["ended"] == "end of footage"
+
+
 def test_ctrl_c_while_labelling_keeps_the_frames_read(person_video, tmp_path,
                                                       monkeypatch) -> None:
     from imimic_gym.estimators.pose import PoseEstimator

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 import imimic_gym  # registers the env, sets headless GL; and its __version__
+from imimic_gym._quiet_start import restore_ctrl_c
 from imimic_gym.cli.cache import add_cache
 from imimic_gym.cli.common import (
     CommandError,
@@ -24,7 +25,7 @@ from imimic_gym.cli.common import (
 )
 from imimic_gym.cli.evaluate import add_eval
 from imimic_gym.cli.mimic import add_label, add_mimic
-from imimic_gym.interrupts import CTRL_C, is_ctrl_c, restore_ctrl_c
+from imimic_gym.interrupts import CTRL_C, is_ctrl_c
 
 
 def _demo_estimator(requested: str | None, scenario: str) -> str:
@@ -270,6 +271,10 @@ def build_parser() -> argparse.ArgumentParser:
     bench.set_defaults(func=cmd_bench)
     add_mimic(sub)
     add_label(sub)
+    for command in sub.choices.values():
+        command.add_argument("--verbose", action="store_true",
+                             help="also show the log lines of native code (MediaPipe's pose "
+                                  "model, OpenCV's FFmpeg) on stderr")
     return parser
 
 
@@ -304,7 +309,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         restore_ctrl_c()  # a Ctrl-C from here on is caught below
         args = build_parser().parse_args(argv)
+        args.argv = list(sys.argv[1:] if argv is None else argv)  # as given, to repeat it
         command = f"imimic {args.command}"
+        if args.verbose:  # read by the pose model and the video reader (estimators.pose_model)
+            os.environ["IMIMIC_NATIVE_LOGS"] = "1"
         return int(args.func(args))
     except CommandError as error:
         print(error, file=sys.stderr)

@@ -154,7 +154,7 @@ def add_backend(parser: argparse.ArgumentParser, task: str) -> None:
     parser.add_argument("--backend", default="local", choices=BACKENDS,
                         help=f"local: this process (default); ray: one Ray task per {task}, "
                              "on a local Ray or the cluster at --address (pip install "
-                             "'imimic_gym[ray]')")
+                             "'.[ray]' in a clone)")
     parser.add_argument("--address", default=None, metavar="ADDR",
                         help="--backend ray: a cluster ('auto', 'ray://host:10001', "
                              "'host:6379'); default: the Ray that `ray start` runs on this "

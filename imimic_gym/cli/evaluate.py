@@ -4,6 +4,7 @@ held-out clips, or estimators on annotated photos; here or as a sweep on Ray."""
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 from collections.abc import Iterable
 from pathlib import Path
@@ -31,6 +32,13 @@ DEFAULTS = {"scenario": ["exp2-servo"], "estimator": ["don"], "modality": "rgb",
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
+    try:
+        return _eval(args)
+    except SweepStopped:
+        return 130
+
+
+def _eval(args: argparse.Namespace) -> int:
     _refuse_ignored(args)
     for name, value in DEFAULTS.items():
         if getattr(args, name) is None:
@@ -96,7 +104,8 @@ def _score_alone(args: argparse.Namespace) -> tuple[list[dict], bool]:
             raise
         unfinished = [pair for pair in rows if len(rows[pair]) < args.episodes]
         for pair in unfinished:
-            _print_estimator_result(result(pair))
+            _print_estimator_result(result(pair), f"partial: stopped by Ctrl-C, "
+                                                  f"{len(rows[pair])} of {args.episodes} clips")
         return [result(pair) for pair in rows], True
     return [result(pair) for pair in rows], False
 
@@ -170,7 +179,9 @@ def _seeds(args: argparse.Namespace) -> tuple[int, ...]:
     return tuple(range(args.first_seed, args.first_seed + args.episodes))
 
 
-def _print_estimator_result(result: dict) -> None:
+def _print_estimator_result(result: dict, partial: str = "") -> None:
+    """One row of an estimator's scores; ``partial``: why it covers fewer clips, marked
+    at its end."""
     mean = result["mean"]
     if "elbow_flexion_rmse_deg" in mean or "coverage" in mean:  # a spatial estimator
         print(f"{result['scenario']:20s} {result['estimator']:12s} elbow flexion rmse "
@@ -189,7 +200,7 @@ def _print_estimator_result(result: dict) -> None:
     print(f"{result['scenario']:20s} {result['estimator']:9s} rmse {mean['rmse_deg']:6.2f} "
           f"deg, settled {_shown(mean['rmse_deg_settled'], 2):>6s} deg, lag "
           f"{_shown(mean['lag_frames'], 1):>5s} frames, eta {mean['mean_trust']:.2f}"
-          f"{occluded}{within}", flush=True)
+          f"{occluded}{within}{f' ({partial})' if partial else ''}", flush=True)
 
 
 def _shown(value: float | None, digits: int) -> str:
@@ -199,19 +210,35 @@ def _shown(value: float | None, digits: int) -> str:
 
 def _run_sweep(cells: list, args: argparse.Namespace) -> tuple[list[dict], dict, dict]:
     """Run ``cells`` as a sweep (`sweep.run_sweep`): the results per configuration, the
-    failed cells' errors and each finished cell's row."""
+    failed cells' errors and each finished cell's row. Ctrl-C raises `SweepStopped`,
+    having said how many cells had finished and how to go on."""
     from imimic_gym.backends import BackendError
-    from imimic_gym.sweep import SweepError, run_sweep, summaries
+    from imimic_gym.sweep import SweepError, SweepInterrupted, run_sweep, summaries
 
     try:
         outcome = run_sweep(cells, journal=args.results, resume=args.resume,
                             backend=args.backend, address=args.address)
     except (BackendError, SweepError) as error:
         raise CommandError(f"imimic eval: {error}") from error
+    except SweepInterrupted as stop:
+        finished = f"{len(stop.result.rows)} of {len(cells)} cells had finished"
+        if args.results:
+            again = [*args.argv, *([] if args.resume else ["--resume"])]
+            print(f"imimic eval: stopped by Ctrl-C; {finished}, kept in {args.results}; go "
+                  f"on with:\n  {shlex.join(['imimic', *again])}", file=sys.stderr)
+        else:
+            print(f"imimic eval: stopped by Ctrl-C; {finished}, not kept (--results FILE "
+                  "keeps each cell as it finishes, so that --resume can go on)",
+                  file=sys.stderr)
+        raise SweepStopped from stop
     skipped = len(cells) - len(outcome.computed)
     if skipped:
         print(f"{skipped} of {len(cells)} cells taken from {args.results}")
     return summaries(cells, outcome.rows), outcome.failures, outcome.rows
+
+
+class SweepStopped(Exception):
+    """Ctrl-C stopped a sweep; what was kept is said: the command ends with code 130."""
 
 
 def _report_failures(failed: dict, args: argparse.Namespace) -> int:
