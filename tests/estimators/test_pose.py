@@ -66,8 +66,8 @@ def test_without_mediapipe_the_error_says_how_to_install_it_and_on_which_python(
     running = f"{sys.version_info.major}.{sys.version_info.minor}"
     with pytest.raises(PoseModelMissingError,
                        match=rf"wheels for Python 3\.9-3\.12 only \(this is {running}\): "
-                             r"pip install 'imimic_gym\[pose\]' then pip install --no-deps "
-                             r"mediapipe==0\.10\.14"):
+                             r"pip install '\.\[pose\]' in a clone of imimic_gym, then pip "
+                             r"install --no-deps mediapipe==0\.10\.14"):
         PoseModel()
 
 
