@@ -101,8 +101,8 @@ def summary(poses: list[ArmPose]) -> dict[str, float]:
 
 
 def inset(poses: dict[str, ArmPose], axes: tuple[int, int], size: int) -> np.ndarray:
-    """A (size, size, 3) view of the arms on two camera axes, around the shoulder, 1.6 m
-    across."""
+    """A (size, size, 3) view of the arms on two camera axes, the shoulder in the middle,
+    1.6 m across."""
     view = np.full((size, size, 3), 30, np.uint8)
     half = size / 2
     scale = size / 1.6
@@ -137,9 +137,15 @@ def picture(frames: list[np.ndarray], runs: dict[str, list[ArmPose]],
             points = camera.project(runs[name][i].points[:4]) * scale
             for a, b in itertools.pairwise(points):
                 cv2.line(image, tuple(map(int, a)), tuple(map(int, b)), colour, 2, cv2.LINE_AA)
-        side = inset({n: runs[n][i] for n in ("pose3d", "pose-world")}, (2, 1), 150)
-        top = inset({n: runs[n][i] for n in ("pose3d", "pose-world")}, (0, 2), 150)
-        image[:150, :150], image[:150, 152:302] = side, top
+        views = [inset({n: runs[n][i] for n in ("pose3d", "pose-world")}, axes, 200)
+                 for axes in ((2, 1), (0, 2))]
+        panel = np.full((height, 204, 3), 0, np.uint8)
+        panel[:200, 2:202], panel[220:420, 2:202] = views
+        cv2.putText(panel, "side: z right, y down", (4, 214), cv2.FONT_HERSHEY_SIMPLEX, 0.4,
+                    WHITE, 1)
+        cv2.putText(panel, "top: x right, z down", (4, 434), cv2.FONT_HERSHEY_SIMPLEX, 0.4,
+                    WHITE, 1)
+        image = np.concatenate([image, panel], axis=1)
         text = (f"f{i} flex {math.degrees(lift[i].elbow_flexion):.0f} "
                 f"(world {math.degrees(runs['pose-world'][i].elbow_flexion):.0f})")
         cv2.putText(image, text, (5, height - 10), cv2.FONT_HERSHEY_SIMPLEX, 0.6, WHITE, 2)
@@ -147,7 +153,7 @@ def picture(frames: list[np.ndarray], runs: dict[str, list[ArmPose]],
     width = max(t.shape[1] for t in tiles)
     tiles = [np.pad(t, ((0, 0), (0, width - t.shape[1]), (0, 0))) for t in tiles]
     sheet = np.concatenate([np.concatenate(tiles[:2], 1), np.concatenate(tiles[2:4], 1)], 0)
-    cv2.putText(sheet, title, (5, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.5, WHITE, 1)
+    cv2.putText(sheet, title, (5, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.5, WHITE, 1, cv2.LINE_AA)
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     cv2.imwrite(path, cv2.cvtColor(sheet, cv2.COLOR_RGB2BGR))
     print(f"wrote {path}")
@@ -172,8 +178,7 @@ def run_video(path: str, max_frames: int | None, png: str | None,
             print(f"  {label}: " + ", ".join(f"{k} {v:.3g}" for k, v in summary(poses).items()))
             runs.setdefault(name, poses)
     if png:
-        picture(frames, runs, camera, png, f"{Path(path).name}: pose3d green, world orange; "
-                "insets: side (z right, y down), top (x right, z down)")
+        picture(frames, runs, camera, png, f"{Path(path).name}: pose3d green, pose-world orange")
 
 
 # Synthetic arms ---------------------------------------------------------------------
