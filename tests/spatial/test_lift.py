@@ -336,3 +336,21 @@ def test_the_neutral_pose_hangs_at_the_side(side: str) -> None:
     # A person facing the camera: their left shoulder on the image's right.
     assert (pose.pixels[0, 0] > pose.pixels[4, 0]) == (side == "left")
     np.testing.assert_allclose(pose.in_arm_frame(pose.upper_arm), [0, 0, -1], atol=1e-12)
+
+
+def test_a_short_flip_of_the_models_depth_is_held_a_long_one_followed() -> None:
+    """The forearm points at the camera, still; the model's depth turns it away for 4
+    frames (0.13 s, under `FLIP_PATIENCE`), later for 15 (0.5 s): the first is a turn
+    no arm makes in a frame, so the lift holds; the second it follows after 0.3 s."""
+    truth = arm("right", np.array([0, 1.0, 0]), unit_vector([0, 0.3, -1]))
+    pixels, depth = observe(truth)
+    flipped = depth.copy()
+    flipped[2:4] = 2 * depth[1] - depth[2:4]
+    script = [depth] * 10 + [flipped] * 4 + [depth] * 10 + [flipped] * 15
+    lifter = ArmLifter(CAMERA, 30.0, smoothing=None, refine=False)
+    forearm_z = [lifter("right", pixels, np.ones(7), d).forearm[2] for d in script]
+    assert all(z < -0.9 for z in forearm_z[:24])
+    assert all(z < -0.9 for z in forearm_z[24:33])  # 9 frames overruled: 0.3 s
+    assert all(z > 0.9 for z in forearm_z[33:])
+    unlimited = ArmLifter(CAMERA, 30.0, smoothing=None, refine=False, max_turn_rate=math.inf)
+    assert unlimited("right", pixels, np.ones(7), flipped).forearm[2] > 0.9
