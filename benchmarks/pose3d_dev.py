@@ -148,6 +148,7 @@ def picture(frames: list[np.ndarray], runs: dict[str, list[ArmPose]],
         image = np.concatenate([image, panel], axis=1)
         text = (f"f{i} flex {math.degrees(lift[i].elbow_flexion):.0f} "
                 f"(world {math.degrees(runs['pose-world'][i].elbow_flexion):.0f})")
+        cv2.rectangle(image, (0, height - 32), (300, height), (0, 0, 0), -1)
         cv2.putText(image, text, (5, height - 10), cv2.FONT_HERSHEY_SIMPLEX, 0.6, WHITE, 2)
         tiles.append(image)
     width = max(t.shape[1] for t in tiles)

@@ -46,7 +46,7 @@ _DEPTH_RANGE = (0.2, 50.0)  # metres: a shoulder depth is kept within this
 # half gap of their middle, its depth order does not pick the root; continuity with the
 # previous frame does; so too within `SIGN_MARGIN` metres (the model's own depth noise).
 SIGN_THRESHOLD = 0.25
-SIGN_MARGIN = 0.05
+SIGN_MARGIN = 0.0
 # The lift's smoothing of the 3-D points (`ArmLifter`).
 ONE_EURO = OneEuroSettings(min_cutoff=5.0, beta=5.0)
 # The pose model's noise on an arm bone's 2-D length, as a share of the length
