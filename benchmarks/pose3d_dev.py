@@ -154,6 +154,7 @@ def picture(frames: list[np.ndarray], runs: dict[str, list[ArmPose]],
     width = max(t.shape[1] for t in tiles)
     tiles = [np.pad(t, ((0, 0), (0, width - t.shape[1]), (0, 0))) for t in tiles]
     sheet = np.concatenate([np.concatenate(tiles[:2], 1), np.concatenate(tiles[2:4], 1)], 0)
+    cv2.rectangle(sheet, (0, 0), (8 * len(title) + 10, 28), (0, 0, 0), -1)
     cv2.putText(sheet, title, (5, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.5, WHITE, 1, cv2.LINE_AA)
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     cv2.imwrite(path, cv2.cvtColor(sheet, cv2.COLOR_RGB2BGR))
