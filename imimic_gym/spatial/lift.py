@@ -61,6 +61,9 @@ FLIP_PATIENCE = 0.3
 _LOCKED_SHARE = 0.5
 # `BoneLengthEstimator`'s quantile of the in-plane bounds.
 LENGTH_QUANTILE = 0.8
+# A shoulder this far (metres) behind the elbow's, other shoulder's and hips' median
+# depth is the wall behind it (`from_depth`).
+_BEHIND = 0.3
 # Limb radii (metres): a depth camera sees a limb's surface, this far in front of its axis.
 LIMB_RADIUS = np.array([0.05, 0.04, 0.03, 0.015, 0.05, 0.08, 0.08])
 _HIP_WIDTH_RATIO = 0.7  # the hips' keypoints' distance / the shoulders'
@@ -447,8 +450,9 @@ class ArmLifter:
 
 
 def from_depth(side: str, pixels: np.ndarray, confidence: np.ndarray,
-               depth_image: np.ndarray, intrinsics: Intrinsics, window: int = 2,
-               fallback: ArmPose | None = None) -> ArmPose:
+               depth_image: np.ndarray, intrinsics: Intrinsics, window: int | None = None,
+               fallback: ArmPose | None = None, lengths: np.ndarray | None = None,
+               length_tolerance: float = 0.25) -> ArmPose:
     """An arm back-projected through a metric depth image.
 
     Args:
@@ -456,11 +460,22 @@ def from_depth(side: str, pixels: np.ndarray, confidence: np.ndarray,
         depth_image: (H, W) float metres along the camera's axis, the intrinsics' size;
             0 or not finite where the camera measured nothing.
         intrinsics: the depth image's camera (registered to the colour image).
-        window: each keypoint's depth is the median of the valid depths within this many
-            pixels of it (a (2 window + 1)^2 square), plus its limb's radius
-            (`LIMB_RADIUS`: the camera sees the limb's surface, not its axis).
+        window: each keypoint's depth is the nearer quarter's edge (the 25th
+            percentile) of the valid depths within this many pixels of it (a
+            (2 window + 1)^2 square; None: 1% of the image's diagonal, at least 2), plus
+            its limb's radius (`LIMB_RADIUS`: the camera sees the limb's surface, not its
+            axis). The nearer quarter, not the median: a keypoint on a limb's or the
+            body's outline has the wall behind half its window. A shoulder more than
+            `_BEHIND` m behind the other body keypoints' median depth (the window missed
+            the body) takes that median.
         fallback: where a keypoint has no valid depth, this pose's point (None: the
             median depth of the keypoints found, confidence 0; `DEFAULT_DEPTH` if none).
+        lengths: (3,) metres of upper arm, forearm and hand, or None. Given, an arm bone
+            whose far end has no depth, or whose back-projected length is off by more
+            than ``length_tolerance`` of it (the window saw something else: the hand in
+            front of the elbow, the wall behind a thin wrist), is solved as the lift
+            solves it: on its far end's ray at its length from its start, toward or away
+            as the measured depth says (`lift_arm`).
 
     Returns:
         The `ArmPose`, ``trust`` the least confidence of shoulder, elbow and wrist.
@@ -471,6 +486,8 @@ def from_depth(side: str, pixels: np.ndarray, confidence: np.ndarray,
         raise ValueError(f"from_depth: the depth image is {depth_image.shape}, the "
                          f"intrinsics are for ({intrinsics.height}, {intrinsics.width})")
     h, w = depth_image.shape
+    if window is None:
+        window = max(2, round(0.01 * math.hypot(w, h)))
     depths = np.full(len(ARM_POINTS), np.nan)
     for i, (x, y) in enumerate(pixels):
         col, row = round(x), round(y)
@@ -479,7 +496,11 @@ def from_depth(side: str, pixels: np.ndarray, confidence: np.ndarray,
         valid = patch[np.isfinite(patch) & (patch > 0)] if 0 <= row < h and 0 <= col < w \
             else np.empty(0)
         if valid.size:
-            depths[i] = float(np.median(valid)) + LIMB_RADIUS[i]
+            depths[i] = float(np.percentile(valid, 25)) + LIMB_RADIUS[i]
+    body = depths[[_E, _OS, _HIP, _OHIP]]
+    body = body[np.isfinite(body)]
+    if body.size and np.isfinite(depths[_S]) and depths[_S] > np.median(body) + _BEHIND:
+        depths[_S] = float(np.median(body))
     found = np.isfinite(depths)
     points = intrinsics.back_project(pixels, np.where(found, depths, 1.0))
     confidence = confidence.copy()
@@ -491,6 +512,17 @@ def from_depth(side: str, pixels: np.ndarray, confidence: np.ndarray,
                                     float(np.median(depths[found])) if found.any()
                                     else DEFAULT_DEPTH))
         confidence[~found] = 0.0
+    if lengths is not None:
+        rays = intrinsics.rays(pixels)
+        for (start, end, _), length in zip(_ARM_BONES, np.asarray(lengths, float),
+                                           strict=True):
+            measured = float(np.linalg.norm(points[end] - points[start]))
+            if found[end] and abs(measured - length) <= length_tolerance * length:
+                continue
+            delta = float(depths[end] - points[start, 2]) if found[end] else None
+            points[end] = _solve_bone(points[start], rays[end], length, delta, None,
+                                      0.0).end
+            confidence[end] = confidence[end] if found[end] else 0.0
     trust = float(confidence[[_S, _E, _W]].min())
     return ArmPose(side, points, confidence, pixels, trust=trust)
 

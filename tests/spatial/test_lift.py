@@ -293,17 +293,27 @@ def test_from_depth_back_projects_with_the_limb_radius() -> None:
     for (x, y), z, radius in zip(pixels, truth[:, 2], LIMB_RADIUS, strict=True):
         col, row = round(x), round(y)
         depth_image[row - 2:row + 3, col - 2:col + 3] = z - radius  # the limb's surface
-    depth_image[round(pixels[0, 1]), round(pixels[0, 0])] = 0.0  # a hole: the median skips it
-    pose = from_depth("right", pixels, np.ones(7), depth_image, CAMERA)
+    depth_image[round(pixels[0, 1]), round(pixels[0, 0])] = 0.0  # a hole: skipped
+    pose = from_depth("right", pixels, np.ones(7), depth_image, CAMERA, window=2)
+    np.testing.assert_allclose(pose.points, truth, atol=1e-5)
+    # Half the window on the wall behind: the nearer quarter is still the limb.
+    col, row = round(pixels[1, 0]), round(pixels[1, 1])
+    depth_image[row - 2:row + 3, col:col + 3] = 4.0
+    pose = from_depth("right", pixels, np.ones(7), depth_image, CAMERA, window=2)
     np.testing.assert_allclose(pose.points, truth, atol=1e-5)
     # No depth at the wrist: the fallback's wrist, or the median depth with confidence 0.
     col, row = round(pixels[2, 0]), round(pixels[2, 1])
     depth_image[row - 2:row + 3, col - 2:col + 3] = np.nan
     fallback = ArmPose("right", truth + 0.01, np.ones(7), pixels)
-    pose = from_depth("right", pixels, np.ones(7), depth_image, CAMERA, fallback=fallback)
+    pose = from_depth("right", pixels, np.ones(7), depth_image, CAMERA, window=2,
+                      fallback=fallback)
     np.testing.assert_allclose(pose.points[2], truth[2] + 0.01)
-    pose = from_depth("right", pixels, np.ones(7), depth_image, CAMERA)
+    pose = from_depth("right", pixels, np.ones(7), depth_image, CAMERA, window=2)
     assert pose.confidence[2] == 0.0 and pose.trust == 0.0
+    # With the lengths, the wrist is solved on its ray at the forearm's length.
+    pose = from_depth("right", pixels, np.ones(7), depth_image, CAMERA, window=2,
+                      lengths=LENGTHS.arm)
+    np.testing.assert_allclose(pose.points[:3], truth[:3], atol=1e-5)
     empty = np.zeros_like(depth_image)
     pose = from_depth("right", pixels, np.ones(7), empty, CAMERA)
     np.testing.assert_allclose(pose.points[:, 2], DEFAULT_DEPTH)
@@ -354,3 +364,23 @@ def test_a_short_flip_of_the_models_depth_is_held_a_long_one_followed() -> None:
     assert all(z > 0.9 for z in forearm_z[33:])
     unlimited = ArmLifter(CAMERA, 30.0, smoothing=None, refine=False, max_turn_rate=math.inf)
     assert unlimited("right", pixels, np.ones(7), flipped).forearm[2] > 0.9
+
+
+def test_from_depth_mends_an_occluded_elbow_and_a_shoulder_on_the_wall() -> None:
+    """The forearm points at the camera: the hand hides the elbow, whose window reads
+    the hand's depth; the shoulder's window sees only the wall. The shoulder takes the
+    body's depth and the elbow is solved on its ray at the upper arm's length."""
+    truth = arm("right", np.array([0, 1.0, 0]), unit_vector([0, 0.1, -1]))
+    pixels, _ = observe(truth)
+    depth_image = np.full((CAMERA.height, CAMERA.width), 4.0, np.float32)
+    for i in (4, 5, 6, 2, 3, 1):  # far to near: the hand's patch over the elbow's
+        col, row = round(pixels[i, 0]), round(pixels[i, 1])
+        depth_image[row - 2:row + 3, col - 2:col + 3] = truth[i, 2] - LIMB_RADIUS[i]
+    col, row = round(pixels[3, 0]), round(pixels[3, 1])
+    depth_image[row - 3:row + 4, col - 3:col + 4] = truth[3, 2] - LIMB_RADIUS[3]
+    pose = from_depth("right", pixels, np.ones(7), depth_image, CAMERA, window=2,
+                      lengths=LENGTHS.arm)
+    assert pose.points[0, 2] == pytest.approx(2.5, abs=0.02)
+    assert abs(float(np.linalg.norm(pose.points[1] - pose.points[0])) - 0.29) < 1e-6
+    true = ArmPose("right", truth, np.ones(7), pixels)
+    assert math.degrees(angle_between(pose.forearm, true.forearm)) < 10.0
