@@ -75,12 +75,11 @@ class RetargetedEstimator:
         pose = self.spatial.update(frame, depth)
         self.last_pose = pose
         zeros = np.zeros(len(self.start))
-        keypoints = pose.pixels[:4]  # shoulder, elbow, wrist, hand: drawn as a chain
-        if pose.trust == 0.0:
+        if pose.trust == 0.0:  # nothing drawn: the held pose is not in this frame
             self.path.reset()  # a person who comes back is no velocity spike
             held = self.start if self.targets is None else self.targets
-            return Estimate(angles=held, omega=zeros, alpha=zeros, torque=zeros, trust=0.0,
-                            keypoints=keypoints)
+            return Estimate(angles=held, omega=zeros, alpha=zeros, torque=zeros, trust=0.0)
+        keypoints = pose.pixels[:4]  # shoulder, elbow, wrist, hand: drawn as a chain
         self.targets = self.retarget(pose, self.targets)
         self.path.update(self.targets)
         return Estimate(angles=self.targets, omega=self.path.omega(), alpha=self.path.alpha(),
