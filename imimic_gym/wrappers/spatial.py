@@ -62,10 +62,10 @@ class RetargetedEstimator:
         return f"{pose.side} arm, {seen}  eta {pose.trust:.2f}"
 
     def draw(self, picture: np.ndarray) -> np.ndarray:
-        """``picture`` with the last reading seen from the person's side
+        """``picture`` with this frame's reading seen from the person's side
         (`spatial.draw.draw_side_view`): where the arm goes toward or away from the
-        camera."""
-        if self.last_pose is None:
+        camera; unchanged where the arm is not seen."""
+        if self.last_pose is None or self.last_pose.trust == 0.0:
             return picture
         return draw_side_view(picture, self.last_pose)
 
