@@ -1,6 +1,8 @@
 # Two entry points for a fresh clone: `make demo` and `make test`. Both create .venv and
 # install what they need; the CPU build of torch is pinned first so nothing pulls CUDA.
 VENV    ?= .venv
+# The Python that builds .venv: this one when it is 3.10-3.12, else python3.12, python3.11 or
+# python3.10 from PATH, else one line that says what to install (tools/pick_python.sh).
 PYTHON  ?= python3
 BIN     := $(VENV)/bin
 # The pose model's package, installed without its declared dependencies (pyproject's
@@ -11,15 +13,19 @@ export MUJOCO_GL ?= egl
 
 WHEEL   := build/wheel-check
 
-.PHONY: setup demo test wheel-check lint bench clean
+.PHONY: setup demo test wheel-check lint bench clean python
 
 setup: $(VENV)/.installed
 
+# Which Python `make setup` would build .venv with (it installs nothing).
+python:
+	@$(SHELL) tools/pick_python.sh '$(PYTHON)'
+
 $(VENV)/.installed: pyproject.toml Makefile
-	$(PYTHON) -m venv $(VENV)
+	python=$$($(SHELL) tools/pick_python.sh '$(PYTHON)') && "$$python" -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet torch==2.13.0
-	$(BIN)/python -m pip install --quiet -e ".[dev,pose,ray]"
+	$(BIN)/python -m pip install --quiet -e ".[dev,pose,ray,ik]"
 	$(BIN)/python -m pip install --quiet --no-deps $(MEDIAPIPE)
 	touch $@
 
@@ -37,7 +43,7 @@ test: setup
 wheel-check: setup
 	rm -rf $(WHEEL) && mkdir -p $(WHEEL)
 	$(BIN)/python -m pip wheel --quiet --no-deps -w $(WHEEL) .
-	$(PYTHON) -m venv $(WHEEL)/venv
+	$(BIN)/python -m venv $(WHEEL)/venv
 	$(WHEEL)/venv/bin/python -m pip install --quiet torch==2.13.0
 	$(WHEEL)/venv/bin/python -m pip install --quiet $(WHEEL)/imimic_gym-*.whl
 	cd $(WHEEL) && venv/bin/imimic demo --estimator cnn --scenario default --frames 30 \

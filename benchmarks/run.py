@@ -37,6 +37,8 @@ SUITES = {
                    "--paper and the CNN's default training run, against their limits",
     "real": "real people: the pose model, pose-seeded DON and every estimator on real "
             "photos and videos (../shared/realdata), and on rendered clips",
+    "spatial": "the arm in 3-D: pose3d, pose-world and pose3d on depth against the rendered "
+               "3-D truth, and the SO-101 copying it",
 }
 
 

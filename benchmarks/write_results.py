@@ -16,7 +16,8 @@ HERE = Path(__file__).parent
 RESULTS = HERE / "results"
 DECISIONS = HERE.parent / "docs" / "decisions"
 # The order of the sections: every suite of `run.py`, the headline figures first.
-ORDER = ("accuracy", "tracking", "paper", "speed", "cnn", "real", "scaleout", "fresh_clone")
+ORDER = ("accuracy", "tracking", "paper", "speed", "cnn", "real", "spatial", "scaleout",
+         "fresh_clone")
 assert sorted(ORDER) == sorted(SUITES), "write_results.ORDER must list run.SUITES"
 
 

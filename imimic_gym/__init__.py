@@ -1,10 +1,21 @@
 """imimic_gym: a robot arm that learns to copy a human arm it sees on video."""
 
-from gymnasium.envs.registration import register
+from imimic_gym.interrupts import quiet_start
 
-from imimic_gym import _gl  # noqa: F401  (headless GL defaults, before MuJoCo loads)
-from imimic_gym.arms import ArmSpec
-from imimic_gym.clips import Clip, ClipSpec, ClipTruth, get_scenario, load_clip, scenario_names
+quiet_start()  # the imimic command: a Ctrl-C in the imports below is one line, no traceback
+
+from gymnasium.envs.registration import register  # noqa: E402
+
+from imimic_gym import _gl  # noqa: E402, F401  (headless GL defaults, before MuJoCo loads)
+from imimic_gym.arms import ArmSpec  # noqa: E402
+from imimic_gym.clips import (  # noqa: E402
+    Clip,
+    ClipSpec,
+    ClipTruth,
+    get_scenario,
+    load_clip,
+    scenario_names,
+)
 
 __all__ = [
     "ArmSpec", "Clip", "ClipSpec", "ClipTruth", "get_scenario", "load_clip", "scenario_names",
@@ -13,3 +24,5 @@ __version__ = "0.1.0"
 
 # One episode is one clip and the env truncates at its end, so no TimeLimit is registered.
 register(id="ImitateVideo-v0", entry_point="imimic_gym.envs.imitate_video:ImitateVideoEnv")
+register(id="ImitateVideo3D-v0",
+         entry_point="imimic_gym.envs.imitate_video_3d:ImitateVideo3DEnv")

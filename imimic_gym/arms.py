@@ -90,9 +90,25 @@ class ArmSpec:
                 f"link, one entry per link; got {self.parents}"
             )
 
+    name = "planar"
+
     @property
     def n_links(self) -> int:
         return len(self.link_lengths)
+
+    @property
+    def n_joints(self) -> int:
+        """One joint per link (`robots.spec.RobotSpec`)."""
+        return len(self.link_lengths)
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        """The MJCF joints' names: q1, q2, ..."""
+        return tuple(f"q{i + 1}" for i in range(self.n_links))
+
+    def build_model(self) -> mujoco.MjModel:
+        """`build_arm_model` of this spec."""
+        return build_arm_model(self)
 
     @property
     def link_parents(self) -> tuple[int, ...]:

@@ -43,12 +43,13 @@ def clip_context(spec: ClipSpec, clip: Clip, modality: str = "rgb") -> Estimator
 
 
 def _spec_context(spec: ClipSpec, modality: str) -> EstimatorContext:
-    """`clip_context` as the scenario's settings give it, before its clip is rendered."""
+    """`clip_context` as the scenario's settings give it, before its clip is rendered (a
+    spatial scenario's camera comes with the clip)."""
     return EstimatorContext(
         fps=float(spec.fps), link_parents=tuple(spec.link_parents),
         joint_ranges=tuple((float(lo), float(hi)) for lo, hi in spec.joint_ranges),
         reference_direction=float(spec.reference_direction), modality=modality,
-        demonstrator=spec.demonstrator)
+        demonstrator=spec.demonstrator, spatial=spec.spatial)
 
 
 def cannot_score(scenario: str, estimator: str, modality: str = "rgb",
@@ -101,6 +102,8 @@ def evaluate_clip(scenario: str, estimator: str, seed: int, modality: str = "rgb
     spec = get_scenario(scenario, **({"n_frames": frames} if frames else {}))
     clip = load_clip(spec.replace(seed=seed), progress=False)
     assert clip.truth is not None and clip.depth is not None  # a rendered clip has both
+    if spec.spatial:
+        return _evaluate_spatial(spec, clip, estimator, seed, modality)
     images = clip.frames if modality == "rgb" else depth_to_frame(clip.depth)
     truth = clip.truth.angles
     warm = round(WARM_UP_S * clip.fps)
@@ -128,6 +131,37 @@ def evaluate_clip(scenario: str, estimator: str, seed: int, modality: str = "rgb
         row["rmse_occluded_deg_prediction_on"] = angle_rmse_deg(with_prediction[occluded],
                                                                 truth[occluded])
     return row
+
+
+def _evaluate_spatial(spec: ClipSpec, clip: Clip, estimator: str, seed: int,
+                      modality: str) -> dict[str, Any]:
+    """`evaluate_clip`'s row for a spatial estimator on a spatial clip: the arm it reads in
+    3-D against the clip's truth (`metrics.spatial_metrics`: elbow-flexion RMSE, the
+    forearm's and upper arm's direction errors, median and 95th percentile), frames
+    without a reading left out and counted. Each RGB frame comes with its metric depth
+    image, as from an RGB-D camera: the estimators that read depth (``pose3d-depth``) use
+    it, the others do not."""
+    from imimic_gym.estimators.registry import build_spatial_estimator
+    from imimic_gym.metrics import spatial_metrics
+    from imimic_gym.spatial.truth import arm_poses, clip_intrinsics
+
+    assert clip.depth is not None  # rendered
+    context = replace(clip_context(spec, clip, modality), intrinsics=clip_intrinsics(clip))
+    reader = build_spatial_estimator(estimator, context)
+    reader.reset()
+    poses = [reader.update(frame, depth) for frame, depth in zip(clip.frames, clip.depth,
+                                                                 strict=True)]
+    truth = arm_poses(clip)
+
+    def stack(which: list, what: str) -> np.ndarray:
+        return np.array([getattr(pose, what) for pose in which])
+
+    read = np.array([pose.trust > 0 for pose in poses])
+    return {"seed": seed,
+            **spatial_metrics(stack(poses, "upper_arm"), stack(poses, "forearm"),
+                              stack(poses, "elbow_flexion"), stack(truth, "upper_arm"),
+                              stack(truth, "forearm"), stack(truth, "elbow_flexion"), read),
+            "coverage": float(read.mean())}
 
 
 def _settled(angles: np.ndarray, truth: np.ndarray, n_links: int) -> dict[str, Any]:

@@ -24,10 +24,17 @@ from typing import Any
 import cv2
 import numpy as np
 
-from imimic_gym.clips.annotations import ARM_KEYPOINTS
+from imimic_gym.clips.annotations import ARM_KEYPOINTS, truth_from_keypoints
+from imimic_gym.clips.types import ClipTruth
 from imimic_gym.interrupts import CTRL_C, is_ctrl_c
+from imimic_gym.kinematics import keypoints_to_angles
 
-__all__ = ["PoseLabels", "label_frames", "label_video", "video_labels"]
+# A link shorter than this share of its usual length in the image is seen nearly end-on
+# (`end_on`): docs/decisions/pose-truth.md.
+END_ON = 0.5
+
+__all__ = ["PoseLabels", "end_on", "human_truth", "label_frames", "label_video", "pose_truth",
+           "video_labels", "within_ranges"]
 
 
 @dataclass(frozen=True)
@@ -86,6 +93,75 @@ def label_frames(frames: Iterable[np.ndarray], fps: float, arm: str = "auto",
             on_frame(i, frame)
         readings.append(reading)
     return _labels(readings, min_confidence)
+
+
+def within_ranges(angles: np.ndarray, labelled: np.ndarray,
+                  joint_ranges: Sequence[tuple[float, float]]) -> np.ndarray:
+    """``angles`` (T, n) rad with each labelled frame's (``labelled`` (T,) bool) kept
+    within its joint's range (low, high) rad, continuing the labelled frame before, as
+    the pose estimator keeps its readings (`estimators.pose.continue_within`: a 2-D fold
+    seen past 180 degrees stays at its limit). Unlabelled frames are returned as given."""
+    from imimic_gym.estimators.pose import continue_within
+
+    kept = np.array(angles, dtype=np.float64)
+    previous: list[float | None] = [None] * kept.shape[1]
+    for i in np.flatnonzero(labelled):
+        for j, joint_range in enumerate(joint_ranges):
+            previous[j] = kept[i, j] = continue_within(float(kept[i, j]), joint_range,
+                                                       previous[j])
+    return kept
+
+
+def human_truth(keypoints: np.ndarray, labelled: np.ndarray, fps: float, n_links: int,
+                reference_direction: float, source: str) -> ClipTruth:
+    """The `ClipTruth` of a person's arm from its shoulder, elbow and wrist (T, 3, 2)
+    pixels, labelled (T, 3): `clips.annotations.truth_from_keypoints` with the angles
+    kept within a human arm's ranges (`estimators.pose.human_joint_ranges`,
+    `within_ranges`), so that a robot with those ranges can reach every one."""
+    from imimic_gym.estimators.pose import human_joint_ranges
+
+    complete = np.asarray(labelled.all(axis=1), dtype=bool)
+    angles = keypoints_to_angles(np.nan_to_num(keypoints), n_links, reference_direction)
+    angles = within_ranges(angles, complete, human_joint_ranges(n_links))
+    return truth_from_keypoints(keypoints, labelled, fps, n_links, reference_direction,
+                                source=source, angles=angles)
+
+
+def end_on(keypoints: np.ndarray, labelled: np.ndarray,
+           shortest: float = END_ON) -> np.ndarray:
+    """(T,) bool: the labelled frames (``labelled`` (T,) bool) whose upper arm or forearm
+    (shoulder, elbow, wrist ``keypoints`` (T, 3, 2) pixels) looks shorter than
+    ``shortest`` times its median over the labelled frames: a link seen nearly end-on,
+    whose direction in the image says little about the joint (its 2-D angle swings
+    through any value as it turns past the camera's line of sight)."""
+    seen = np.zeros(len(keypoints), dtype=bool)
+    if not labelled.any():
+        return seen
+    lengths = np.linalg.norm(np.diff(keypoints, axis=1), axis=2)  # (T, 2): upper, fore
+    typical = np.median(lengths[labelled], axis=0)
+    short = (lengths < shortest * typical).any(axis=1)
+    seen[labelled] = short[labelled]
+    return seen
+
+
+def pose_truth(source: str | Path, frames: np.ndarray, fps: float, n_links: int,
+               reference_direction: float, arm: str = "auto") -> ClipTruth:
+    """The pose model's arm in ``frames`` (T, H, W, 3) uint8 RGB of the file ``source``
+    as truth (`human_truth`; labels from `video_labels`, cached): one arm for the whole
+    video (``arm``, or for "auto" the side it read most often, read again on every
+    frame when it switched), on the frames where it read that arm with no link seen
+    end-on (`end_on`); the others count as unlabelled."""
+    labels = video_labels(source, frames, fps, arm=arm)
+    sides = np.array(labels.side)
+    read = sides[labels.labelled & (sides != "")]
+    if arm == "auto" and len(set(read.tolist())) > 1:
+        names, counts = np.unique(read, return_counts=True)
+        labels = video_labels(source, frames, fps, arm=str(names[np.argmax(counts)]))
+    labelled = labels.labelled & ~end_on(labels.keypoints, labels.labelled, END_ON)
+    keypoints = labels.keypoints.copy()
+    keypoints[~labelled] = np.nan
+    return human_truth(keypoints, np.repeat(labelled[:, None], 3, axis=1), fps, n_links,
+                       reference_direction, source=f"the pose model on {source}")
 
 
 # Of the cached labels' layout and of how they are made: bump it when a change to the

@@ -1,6 +1,8 @@
 """Tracking metrics shared by the demo, the benchmarks and the evaluation suite.
 
 All angle inputs are radians, shaped (T,) or (T, n); outputs are in degrees or frames.
+The 3-D metrics (`direction_error_deg`, `spatial_metrics`) take unit direction vectors
+(T, 3) in one frame (any: the angle between two directions does not depend on it).
 """
 
 from __future__ import annotations
@@ -13,8 +15,9 @@ import numpy as np
 from imimic_gym.kinematics import wrap_angle
 
 __all__ = [
-    "OCCLUDED", "RECOVERED_DEG", "angle_rmse_deg", "bootstrap_interval", "jerk_rms",
-    "lag_frames", "max_error_deg", "pcp", "recovery_time_s", "with_interval", "wrap_angle",
+    "OCCLUDED", "RECOVERED_DEG", "angle_rmse_deg", "bootstrap_interval", "direction_error_deg",
+    "jerk_rms", "lag_frames", "max_error_deg", "pcp", "recovery_time_s", "spatial_metrics",
+    "with_interval", "wrap_angle",
 ]
 
 OCCLUDED = 0.1  # a frame counts as occluded when over 10% of the moving links is hidden
@@ -37,7 +40,8 @@ def lag_frames(truth: np.ndarray, follower: np.ndarray, max_lag: int = 30) -> in
 
     Both signals lose their means; the correlation at each shift k in [-max_lag, max_lag]
     is normalised by the overlap, summed over joints, and the best k returned (positive:
-    the follower is late). A flat signal (no motion) has no defined lag: returns 0.
+    the follower is late). Frames where ``truth`` is NaN (no truth) are left out of the
+    means and of every overlap. A flat signal (no motion) has no defined lag: returns 0.
     """
     a = np.asarray(truth, dtype=np.float64).reshape(len(truth), -1)
     b = np.asarray(follower, dtype=np.float64).reshape(len(follower), -1)
@@ -45,14 +49,21 @@ def lag_frames(truth: np.ndarray, follower: np.ndarray, max_lag: int = 30) -> in
         raise ValueError(
             f"truth and follower must have the same shape, got {a.shape} and {b.shape}"
         )
-    a, b = a - a.mean(axis=0), b - b.mean(axis=0)
+    known = np.asarray(np.isfinite(a).all(axis=1), dtype=bool)
+    if not known.any():
+        return 0
+    a = np.where(known[:, None], a - a[known].mean(axis=0), 0.0)
+    b = b - b[known].mean(axis=0)
     max_lag = min(max_lag, len(a) - 2)
     if max_lag < 0 or not (np.any(a) and np.any(b)):
         return 0
     best_lag, best = 0, -np.inf
     for k in range(-max_lag, max_lag + 1):
-        x, y = (a[: len(a) - k], b[k:]) if k >= 0 else (a[-k:], b[: len(b) + k])
-        score = float(np.sum(x * y)) / len(x)
+        if k >= 0:
+            x, y, pairs = a[: len(a) - k], b[k:], known[: len(a) - k]
+        else:
+            x, y, pairs = a[-k:], b[: len(b) + k], known[-k:]
+        score = float(np.sum(x * y)) / max(int(pairs.sum()), 1)
         if score > best + 1e-12:
             best_lag, best = k, score
     return best_lag
@@ -141,3 +152,51 @@ def recovery_time_s(robot: np.ndarray, truth: np.ndarray, occlusion: np.ndarray,
         back = np.flatnonzero(within[end:])
         times.append((back[0] if len(back) else len(within) - end) / float(fps))
     return float(np.mean(times))
+
+
+def direction_error_deg(estimate: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """Angle in degrees between direction vectors ``estimate`` and ``truth`` (..., 3),
+    per row, in [0, 180] (atan2 of the cross and dot products: exact near 0 and 180)."""
+    a, b = np.asarray(estimate, np.float64), np.asarray(truth, np.float64)
+    if a.shape != b.shape or a.shape[-1:] != (3,):
+        raise ValueError(f"directions must both be (..., 3), got {a.shape} and {b.shape}")
+    cross = np.linalg.norm(np.cross(a, b), axis=-1)
+    return np.degrees(np.arctan2(cross, np.sum(a * b, axis=-1)))
+
+
+def spatial_metrics(upper: np.ndarray, forearm: np.ndarray, flexion: np.ndarray,
+                    true_upper: np.ndarray, true_forearm: np.ndarray,
+                    true_flexion: np.ndarray, read: np.ndarray) -> dict[str, Any]:
+    """How well a 3-D estimate follows the arm over a clip of T frames.
+
+    Args:
+        upper, forearm: (T, 3) estimated unit directions of the upper arm and forearm.
+        flexion: (T,) estimated elbow flexion, rad.
+        true_upper, true_forearm, true_flexion: the same from the truth.
+        read: (T,) bool, the estimator saw the arm in that frame (trust > 0); frames
+            without a reading are left out of the errors and counted.
+    Returns:
+        ``elbow_flexion_rmse_deg``, ``forearm_direction_error_deg`` and
+        ``upper_arm_direction_error_deg`` (medians over the frames read), their 95th
+        percentiles (``*_p95_deg``), ``frames``, ``frames_without_reading``; the errors
+        None where no frame was read (never NaN).
+    """
+    read = np.asarray(read, dtype=bool)
+    upper_error = direction_error_deg(upper, true_upper)[read]
+    fore_error = direction_error_deg(forearm, true_forearm)[read]
+    flex_error = np.degrees(np.asarray(flexion, np.float64) - np.asarray(true_flexion))[read]
+    any_read = bool(read.any())
+
+    def stat(values: np.ndarray, how: Any) -> float | None:
+        return float(how(values)) if any_read else None
+
+    return {
+        "elbow_flexion_rmse_deg": stat(flex_error, lambda e: np.sqrt(np.mean(e**2))),
+        "elbow_flexion_p95_deg": stat(np.abs(flex_error), lambda e: np.percentile(e, 95)),
+        "forearm_direction_error_deg": stat(fore_error, np.median),
+        "forearm_direction_p95_deg": stat(fore_error, lambda e: np.percentile(e, 95)),
+        "upper_arm_direction_error_deg": stat(upper_error, np.median),
+        "upper_arm_direction_p95_deg": stat(upper_error, lambda e: np.percentile(e, 95)),
+        "frames": int(read.size),
+        "frames_without_reading": int(read.size - read.sum()),
+    }

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import queue
 import threading
 import time
@@ -42,9 +43,11 @@ from imimic_gym.clips.video import require_frames
 from imimic_gym.clips.video_writer import write_video
 from imimic_gym.envs.imitate_video import imitate_env
 from imimic_gym.estimators.registry import get_estimator
+from imimic_gym.hardware.so101 import PortLostError as RobotLinkLost
 from imimic_gym.interrupts import CTRL_C, is_ctrl_c
 from imimic_gym.rollout import Observer, Step, Trajectory, episode
 from imimic_gym.wrappers import EstimatorObservation, RegistryObservation
+from imimic_gym.wrappers.spatial import RetargetedEstimator
 
 __all__ = ["PREVIEW_HEIGHT", "CsvLog", "MimicLog", "ServoOut", "mimic_frames", "run_mimic",
            "write_behind"]
@@ -86,6 +89,14 @@ class MimicLog:
         if self.first_done is None:
             self.first_done = self.last_done
 
+    def drop_last(self) -> None:
+        """Forget the last frame logged (one whose outputs were not all written)."""
+        for series in (self.time, self.angles, self.robot, self.trust, self.predicted,
+                       self.latency_ms):
+            del series[-1:]
+        if not self.time:
+            self.first_done = self.last_done = None
+
     def trajectory(self) -> Trajectory:
         """The run as a `Trajectory` whose target is the estimate (for `plot_tracking`)."""
         return Trajectory(time=np.asarray(self.time), target=np.asarray(self.angles),
@@ -122,6 +133,60 @@ class CsvLog:
                             f"{self.log.latency_ms[-1]:.2f}"])
 
 
+def spatial_csv_header(joint_names: Sequence[str]) -> list[str]:
+    """mimic.csv's columns for a spatial robot (``--robot so101``): the arm read in 3-D
+    (elbow flexion, degrees; the upper-arm and forearm unit directions in the camera
+    frame, x right, y down, z away from the camera) and the robot's joint targets named as
+    LeRobot names them (``shoulder_pan.pos``: degrees; ``gripper.pos``: 0-100)."""
+    return ["time_s", "frame", "eta", "elbow_flexion_deg", "upper_x", "upper_y", "upper_z",
+            "fore_x", "fore_y", "fore_z", *(f"{name}.pos" for name in joint_names),
+            "latency_ms"]
+
+
+class SpatialCsvLog:
+    """Observer: one ``mimic.csv`` row a frame (`spatial_csv_header`) for a spatial robot:
+    the estimator's last `ArmPose` and the joint command the controller gave (the
+    position servos' targets, what a real arm is sent), in LeRobot's units. Runs after
+    ``log``."""
+
+    def __init__(self, rows: Any, log: MimicLog, robot: Any) -> None:
+        self.rows, self.log, self.robot = rows, log, robot
+        self._inner: Any = None
+
+    def on_step(self, env: gym.Env, step: Step) -> None:
+        if self._inner is None:
+            self._inner = imitate_env(env)
+        pose = cast("RetargetedEstimator", cast(EstimatorObservation, env).estimator).last_pose
+        targets = self.robot.to_lerobot(self._inner.action_to_command(step.action))
+        estimate = cast(EstimatorObservation, env).last_estimate
+        assert estimate is not None and pose is not None
+        self.rows.writerow([f"{self.log.time[-1]:.4f}", step.info["frame_index"],
+                            f"{estimate.trust:.4f}",
+                            f"{math.degrees(pose.elbow_flexion):.3f}",
+                            *(f"{v:.5f}" for v in pose.upper_arm),
+                            *(f"{v:.5f}" for v in pose.forearm),
+                            *(f"{targets[name]:.4f}" for name in self.robot.joint_names),
+                            f"{self.log.latency_ms[-1]:.2f}"])
+
+
+class BusOut:
+    """Observer: each frame's joint command to a spatial robot's bus (an `SO101Bus`): the
+    position servos' targets in LeRobot's units, with the estimate's trust (the bus holds
+    on trust 0)."""
+
+    def __init__(self, bus: Any, robot: Any) -> None:
+        self.bus, self.robot = bus, robot
+        self._inner: Any = None
+
+    def on_step(self, env: gym.Env, step: Step) -> None:
+        if self._inner is None:
+            self._inner = imitate_env(env)
+        estimate = cast(EstimatorObservation, env).last_estimate
+        assert estimate is not None
+        self.bus.send(self.robot.to_lerobot(self._inner.action_to_command(step.action)),
+                      estimate.trust)
+
+
 class ServoOut:
     """Observer: each frame's joint command to ``servo`` (a `ServoBridge`): the position
     command of the controller's action, or the simulated robot's angle under another
@@ -141,23 +206,35 @@ class ServoOut:
 
 def mimic_frames(env: EstimatorObservation, controller: Any, log: MimicLog, rows: Any = None,
                  servo: Any = None, observers: Sequence[Observer] = (),
-                 realtime: bool = False) -> Iterator[np.ndarray]:
+                 realtime: bool = False, robot: Any = None) -> Iterator[np.ndarray]:
     """Run ``controller`` on the estimator-wrapped ``env`` to the end of its clip (or of
     the stream) through `rollout.episode`, yielding each side-by-side frame (H, 2W, 3)
     uint8 RGB as it is made.
 
-    Observers, in order: the joint command to ``servo`` (a `ServoBridge`), ``log`` (the
-    estimate, robot angle and latency), a row into the csv writer ``rows``, then
-    ``observers`` (a progress display). A stream that ends early ends the run, not an
-    error. ``realtime`` waits until frame i's time (i / fps after the first).
+    Observers, in order: the joint command to ``servo`` (a `ServoBridge`) and ``log``
+    (the estimate, robot angle and latency); then, once the frame is drawn, a row into the
+    csv writer ``rows`` and ``observers`` (a progress display). A frame whose drawing is
+    interrupted (Ctrl-C) is taken back out of ``log``, so the log, the CSV and the frames
+    yielded end at the same frame. A stream that ends early ends the run, not an error.
+    ``realtime`` waits until frame i's time (i / fps after the first). ``robot``: a
+    spatial robot's description (`robots.SO101Spec`) on ``ImitateVideo3D-v0``: its rows
+    are `spatial_csv_header`'s and ``servo`` is its bus (an `SO101Bus`, `BusOut`).
     """
-    watching: list[Observer] = [] if servo is None else [ServoOut(servo)]
-    watching.append(log)
-    if rows is not None:
-        watching.append(CsvLog(rows, log))
-    for _ in episode(env, controller, seed=0, observers=[*watching, *observers],
-                     realtime=realtime):
-        yield cast(np.ndarray, env.render())  # render_mode="rgb_array"
+    watching: list[Observer] = ([] if servo is None else [ServoOut(servo)] if robot is None
+                                else [BusOut(servo, robot)])
+    drawn: list[Observer] = ([] if rows is None else [CsvLog(rows, log)] if robot is None
+                             else [SpatialCsvLog(rows, log, robot)])
+    drawn.extend(observers)
+    for step in episode(env, controller, seed=0, observers=[*watching, log],
+                        realtime=realtime):
+        try:
+            frame = cast(np.ndarray, env.render())  # render_mode="rgb_array"
+        except BaseException:
+            log.drop_last()
+            raise
+        for observer in drawn:
+            observer.on_step(env, step)
+        yield frame
 
 
 class _Progress:
@@ -183,31 +260,40 @@ def write_behind(path: Path, frames: Iterator[np.ndarray], fps: float,
     """`write_video` on a thread of its own, fed through a queue of ``depth`` frames, so
     that encoding a frame overlaps estimating the next (the encoder and the estimator
     then share the two cores). The file is finalised whatever ends the run (Ctrl-C
-    included); an error of the writer's is raised here."""
+    included), with every frame ``frames`` yielded, even one whose hand-over Ctrl-C
+    interrupted; an error of the writer's is raised here."""
     done = object()
     pending: queue.Queue = queue.Queue(maxsize=depth)
     failed: list[BaseException] = []
+    finished = threading.Event()  # the writer has taken the end marker
 
     def feed() -> Iterator[np.ndarray]:
         while (frame := pending.get()) is not done:
             yield frame
+        finished.set()
 
     def write() -> None:
         try:
             write_video(path, feed(), fps)
         except BaseException as error:  # handed to the caller below
             failed.append(error)
-            while pending.get() is not done:  # let the producer finish
-                pass
+            while not finished.is_set() and pending.get() is not done:  # let the producer
+                pass                                                     # finish
 
     writer = threading.Thread(target=write, name="mimic.mp4 writer", daemon=True)
     writer.start()
+    made = handed = 0
+    frame = None
     try:
         for frame in frames:
+            made += 1
             pending.put(frame)
+            handed += 1
             if failed:
                 break
     finally:
+        if handed < made and not failed:  # Ctrl-C while waiting for room in the queue
+            pending.put(frame)
         pending.put(done)
         writer.join()
     if failed:
@@ -225,14 +311,18 @@ def steady_rate(log: MimicLog) -> float:
 def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str = "position",
               estimator_params: dict[str, Any] | None = None, servo: Any = None,
               progress: bool = True, realtime: bool = False,
-              preview_height: int | None = PREVIEW_HEIGHT) -> dict[str, Any]:
+              preview_height: int | None = PREVIEW_HEIGHT,
+              robot: str | None = None) -> dict[str, Any]:
     """Mimic the arm in ``clip`` (a `Clip`, typically from `stream_video`) and write the
     outputs into ``out`` (see the module docstring). ``realtime`` paces a file to its own
     frame rate (a servo then moves at the person's speed; a camera paces itself). Returns
     the summary also written to ``mimic.json``: frames, wall time, frames/s, latency, mean
     eta, how the run ended. The clip's stream and ``servo`` are closed at the end.
     ``preview_height``: rows of ``mimic.mp4`` where the footage has more (None: the
-    footage's); the estimator always reads the full frames."""
+    footage's); the estimator always reads the full frames. ``robot="so101"``: the arm
+    is read in 3-D by a spatial estimator (``pose3d``) and copied by the SO-101 of
+    ``ImitateVideo3D-v0``; ``servo`` is then its bus (`hardware.SO101Bus`) and mimic.csv
+    has `spatial_csv_header`'s columns."""
     from tqdm.auto import tqdm
 
     from imimic_gym.controllers import EstimateTarget, PDController
@@ -247,14 +337,18 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
     cut_short = getattr(clip.frames, "cut_short", False)
     why = (f"{estimator.upper()} (window {needed - 1})" if needed > 1
            else f"{estimator.upper()}")
+    if needed < 2:  # an estimator that reads a frame alone: the env's first step needs two
+        needed, why = 2, "one step (from a frame to the next)"
     try:
         if not live and known_length:
             require_frames(len(clip), needed,
                            f"{source}, cut to its first frames," if cut_short else source, why)
-        env = RegistryObservation(
-            gym.make("ImitateVideo-v0", clip=clip, control=control, render_mode="rgb_array",
-                     render_height=preview_height),
-            estimator, keep_frame=False, **params)
+        scene = (gym.make("ImitateVideo-v0", clip=clip, control=control,
+                          render_mode="rgb_array", render_height=preview_height)
+                 if robot is None else
+                 gym.make("ImitateVideo3D-v0", clip=clip, robot=robot,
+                          render_mode="rgb_array", render_height=preview_height))
+        env = RegistryObservation(scene, estimator, keep_frame=False, **params)
     except BaseException:  # release the camera or file before the error goes up
         if hasattr(clip.frames, "close"):
             clip.frames.close()
@@ -271,15 +365,20 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
     started = time.perf_counter()
     with (out / "mimic.csv").open("w", newline="", buffering=1) as table:
         rows = csv.writer(table)
-        rows.writerow(csv_header(env.n))
+        spec = None if robot is None else imitate_env(env).arm
+        rows.writerow(csv_header(env.n) if spec is None
+                      else spatial_csv_header(spec.joint_names))
         try:
             write_behind(out / "mimic.mp4",
-                         mimic_frames(env, controller, log, rows, servo, [show], realtime),
+                         mimic_frames(env, controller, log, rows, servo, [show], realtime,
+                                      robot=spec),
                          clip.fps)
         except CTRL_C as error:
             if not is_ctrl_c(error):
                 raise
             ended = "stopped by Ctrl-C"
+        except RobotLinkLost as error:  # the robot is gone: end the run, keep the outputs
+            ended = f"stopped: {error}"
         finally:
             wall = time.perf_counter() - started
             bar.close()
@@ -322,8 +421,10 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
         "skipped_frames": skipped,
         "ended": ended,
     }
-    if servo is not None:
+    if servo is not None and robot is None:
         summary["servo_commands_sent"], summary["servo_errors"] = servo.sent, servo.errors
+    if robot is not None:
+        summary["robot"] = robot
     (out / "mimic.json").write_text(json.dumps(summary, indent=2) + "\n")
     require_frames(frames, 0 if stopped or live else needed, source, why)
     return summary

@@ -28,6 +28,8 @@ class Trajectory:
 
     ``frames`` holds ``env.render()`` images (T, H, 2W, 3) uint8 when recorded;
     ``trust`` (T,) the estimator's eta when the observation carries ``estimate``.
+    ``target`` is NaN on the frames without truth (``info["has_truth"]`` False: a video
+    frame without a label, or a clip without truth), which the metrics leave out.
     """
 
     time: np.ndarray
@@ -38,20 +40,32 @@ class Trajectory:
     frames: list[np.ndarray] = field(default_factory=list)
     trust: np.ndarray | None = None
 
+    @property
+    def has_truth(self) -> np.ndarray:
+        """(T,) bool: the frames whose target is known."""
+        target = np.asarray(self.target, dtype=np.float64)
+        return np.asarray(np.isfinite(target.reshape(len(target), -1)).all(axis=1), dtype=bool)
+
     def metrics(self) -> dict[str, Any]:
-        """rmse_deg, max_error_deg, lag_frames, jerk_deg_s3 (robot), recovery_s (None
-        without an occlusion that ends), mean_trust (None without an estimate),
-        mean_reward, frames."""
+        """rmse_deg, max_error_deg (over the frames with truth; None without any),
+        lag_frames, jerk_deg_s3 (robot), recovery_s (None without an occlusion that
+        ends), mean_trust (None without an estimate), mean_reward, frames, and
+        truth_frames (the frames the errors are over)."""
         fps = 1.0 / float(self.time[1] - self.time[0]) if len(self.time) > 1 else 1.0
+        known = self.has_truth
+        scored = known.any()
         return {
-            "rmse_deg": angle_rmse_deg(self.robot, self.target),
-            "max_error_deg": max_error_deg(self.robot, self.target),
+            "rmse_deg": angle_rmse_deg(self.robot[known], self.target[known]) if scored
+            else None,
+            "max_error_deg": max_error_deg(self.robot[known], self.target[known]) if scored
+            else None,
             "lag_frames": lag_frames(self.target, self.robot),
             "jerk_deg_s3": jerk_rms(self.robot, fps),
             "recovery_s": recovery_time_s(self.robot, self.target, self.occlusion, fps),
             "mean_trust": float(np.mean(self.trust)) if self.trust is not None else None,
             "mean_reward": float(np.mean(self.reward)) if len(self.reward) else 0.0,
             "frames": len(self.time),
+            "truth_frames": int(known.sum()),
         }
 
 
@@ -136,7 +150,9 @@ class TrajectoryLog:
         """Log one frame (a vector env's loop logs each sub-env's frames this way)."""
         obs, info = step.obs, step.info
         self.index.append(info["frame_index"])
-        self.target.append(info["target_angles"])
+        # A frame without truth has no target: NaN, which the metrics leave out.
+        self.target.append(info["target_angles"] if info.get("has_truth", True)
+                           else np.full(len(obs["qpos"]), np.nan))
         self.robot.append(obs["qpos"])
         self.occlusion.append(info["occlusion"])
         self.reward.append(step.reward)

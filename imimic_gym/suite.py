@@ -104,6 +104,11 @@ class RunConfig:
             return checkpoint_control()
         return CONTROLLERS[self.controller][0]
 
+    @property
+    def env_id(self) -> str:
+        """``ImitateVideo3D-v0`` (the SO-101) for a spatial scenario, else the planar v0."""
+        return "ImitateVideo3D-v0" if get_scenario(self.scenario).spatial else "ImitateVideo-v0"
+
     def env_kwargs(self) -> dict[str, Any]:
         kwargs: dict[str, Any] = {"scenario": self.scenario, "control": self.control,
                                   "clip_seeds": self.seeds}
@@ -112,7 +117,7 @@ class RunConfig:
         return kwargs
 
     def make_env(self) -> gym.Env:
-        return _wrap(gym.make("ImitateVideo-v0", **self.env_kwargs()), self.estimator)
+        return _wrap(gym.make(self.env_id, **self.env_kwargs()), self.estimator)
 
 
 def run_config(config: RunConfig, num_envs: int = 1) -> list[Trajectory]:
@@ -138,7 +143,7 @@ def _run_vector(config: RunConfig, num_envs: int) -> list[Trajectory]:
         for seed in config.seeds:
             load_clip(spec.replace(seed=seed))
     vec = cast("gym.vector.SyncVectorEnv | gym.vector.AsyncVectorEnv",
-               gym.make_vec("ImitateVideo-v0", num_envs=num_envs,
+               gym.make_vec(config.env_id, num_envs=num_envs,
                             vectorization_mode="sync" if sync else "async",
                             wrappers=[estimator_wrapper(config.estimator)],
                             **config.env_kwargs()))

@@ -261,6 +261,10 @@ SHORT = ["--episodes", "1", "--frames", "20"]
      "--results {folder} is a folder; expected a file to write"),
     (["bench", "don", "--json", "{folder}"],
      "--json {folder} is a folder; expected a file to write"),
+    # Refused for root too, whose permissions /proc grants but whose writes it refuses.
+    (["eval", "--json", "/proc/o.json", *SHORT], "--json /proc/o.json: /proc is not writable"),
+    (["eval", "--photos", "{tmp}/arms.json", "--images", "{tmp}", "--json", "/proc/o.json"],
+     "--json /proc/o.json: /proc is not writable"),
 ])
 def test_an_output_that_cannot_be_written_is_refused_before_any_work(
         argv, message, tmp_path, capsys, monkeypatch) -> None:
@@ -310,6 +314,18 @@ def test_ctrl_c_during_eval_keeps_the_results_that_had_finished(suite, tmp_path)
         assert (tmp_path / "out" / "eval.md").read_text().count("| don | position |") == len(kept)
     else:
         assert out.count(" rmse ") == len(kept) - 1, said  # the first row was read above
+
+
+def test_output_whose_reader_has_gone_ends_quietly() -> None:
+    """`imimic scenarios | head -1`: the reader closes the pipe (here before the first
+    write, so that every write fails): no message, exit code 141 as for Unix tools."""
+    read_end, write_end = os.pipe()
+    run = subprocess.Popen([sys.executable, "-m", "imimic_gym.cli", "scenarios"],
+                           stdout=write_end, stderr=subprocess.PIPE, text=True)
+    os.close(write_end)
+    os.close(read_end)
+    _, err = run.communicate(timeout=120)
+    assert (run.returncode, err) == (141, "")
 
 
 def test_ctrl_c_inside_a_compiled_call_counts_as_ctrl_c() -> None:

@@ -134,11 +134,22 @@ def test_an_unstable_step_raises_instead_of_resetting_the_arm_silently(
       "tracking_weight must be a finite number >= 0, got nan"),
      ({"reset_noise_scale": -0.1}, ValueError, "reset_noise_scale must be a finite number"),
      ({"control": "thrust"}, ValueError, "control must be one of"),
-     ({"modality": "infrared"}, ValueError, "modality must be one of")],
+     ({"modality": "infrared"}, ValueError, "modality must be one of"),
+     ({"clip": 123}, ValueError, r"clip must be a video file's path or a Clip, got 123"),
+     ({"clip": "{video}", "annotations": 5}, ValueError,
+      r"annotations must be 'pose' or the path of a labels file \(COCO-keypoints JSON\), "
+      r"got 5"),
+     ({"clip": "{video}", "annotations": "{folder}"}, ValueError,
+      r"annotations must be 'pose' or the path of a labels file .*, got the folder '.*'"),
+     ({"clip_seeds": "abc"}, ValueError,
+      r"clip_seeds must be a sequence of whole numbers .*, got 'abc'"),
+     ({"clip_seeds": 5}, ValueError, r"clip_seeds must be a sequence of whole numbers"),
+     ({"clip_seeds": (1.5,)}, ValueError, r"clip_seeds must be .*, got \(1\.5,\)")],
 )
-def test_bad_arguments_are_named(kwargs, error, message) -> None:
+def test_bad_arguments_are_named(kwargs, error, message, servo_mp4) -> None:
+    named = {"video": str(servo_mp4), "folder": str(servo_mp4.parent)}
     with pytest.raises(error, match=message):
-        make(**kwargs)
+        make(**{k: v.format(**named) if isinstance(v, str) else v for k, v in kwargs.items()})
 
 
 def test_episode_is_one_clip_and_truncates_at_its_end() -> None:

@@ -2,6 +2,7 @@
 the env read back; ``annotations="pose"`` gives the env pseudo-truth, flagged in info."""
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -16,6 +17,7 @@ from imimic_gym.cli import main
 from imimic_gym.clips import get_scenario, load_clip
 from imimic_gym.clips.annotations import read_annotations
 from imimic_gym.clips.video_writer import write_video
+from imimic_gym.estimators.pose import human_joint_ranges
 from imimic_gym.kinematics import keypoints_to_angles
 from imimic_gym.labels import label_video
 
@@ -61,16 +63,19 @@ def test_label_writes_coco_that_train_cnn_and_the_env_read_back(person_video,
 def test_pose_annotations_give_the_env_flagged_pseudo_truth(person_video) -> None:
     clip, video = person_video
     env = gym.make("ImitateVideo-v0", clip=str(video), annotations="pose")
-    _, info = env.reset(seed=0)
-    assert info["has_truth"] and info["truth_source"] == "pose"
-    targets = [info["target_angles"]]
+    infos = [env.reset(seed=0)[1]]
     for _ in range(29):
-        *_, info = env.step(np.zeros(1, np.float32))
-        targets.append(info["target_angles"])
+        infos.append(env.step(np.zeros(1, np.float32))[-1])
+    assert env.unwrapped.arm.joint_ranges == human_joint_ranges(1)  # a person's, as mimic's
+    assert all(info["truth_source"] == "pose" for info in infos)
+    assert all(info["label_filled"] is not info["has_truth"] for info in infos)
+    read = [info["frame_index"] for info in infos if info["has_truth"]]
+    assert len(read) >= 20  # the frames the model was sure of
+    targets = np.array([infos[i]["target_angles"] for i in read])
     assert np.isfinite(targets).all()
     # The model's reading of our small mannequin in a compressed video: right on most
     # frames, far off on a few (a model's labels, to be checked).
-    errors = np.degrees(np.abs(np.array(targets) - clip.truth.angles))
+    errors = np.degrees(np.abs(targets - clip.truth.angles[read]))
     assert np.median(errors) < 15.0
     env.close()
     rendered = gym.make("ImitateVideo-v0", scenario="default", n_frames=5)
@@ -158,3 +163,29 @@ def test_ctrl_c_while_labelling_keeps_the_frames_read(person_video, tmp_path,
     calls.clear()
     assert main(["label", "--video", str(person_video[1]), "--out", str(tmp_path / "cli")]) == 130
     assert len(json.loads((tmp_path / "cli" / "labels.json").read_text())["images"]) == 4
+
+
+def test_label_angles_stay_within_a_human_arms_range_through_the_fold() -> None:
+    from imimic_gym.labels import within_ranges
+
+    seen = np.radians([[170.0], [179.0], [-179.0], [-170.0], [-85.0], [-60.0]])
+    kept = within_ranges(seen, np.ones(6, dtype=bool), [(-math.radians(175), math.radians(175))])
+    # Past 180 degrees a 2-D fold stays at the limit; a turn far past it is the arm on
+    # the fold's other side.
+    np.testing.assert_allclose(np.degrees(kept[:, 0]), [170, 175, 175, 175, -85, -60])
+    skipped = within_ranges(seen, np.array([True, False, True, True, True, True]),
+                            [(-math.radians(175), math.radians(175))])
+    assert np.degrees(skipped[1, 0]) == pytest.approx(179.0)  # unlabelled: as given
+
+
+def test_a_link_seen_end_on_is_no_reading() -> None:
+    from imimic_gym.labels import END_ON, end_on
+
+    upper, fore = np.array([0.0, 100.0]), np.array([0.0, 80.0])
+    keypoints = np.tile(np.stack([[50.0, 50.0], [50.0, 150.0], [50.0, 230.0]]), (6, 1, 1))
+    keypoints[2, 2] = keypoints[2, 1] + (END_ON - 0.1) * fore  # the forearm end-on
+    keypoints[4, 1] = keypoints[4, 0] + (END_ON - 0.1) * upper  # the upper arm end-on
+    keypoints[4, 2] = keypoints[4, 1] + fore
+    labelled = np.array([True, True, True, True, True, False])
+    np.testing.assert_array_equal(end_on(keypoints, labelled),
+                                  [False, False, True, False, True, False])

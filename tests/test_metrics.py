@@ -73,3 +73,43 @@ def test_bootstrap_interval_brackets_the_statistic_and_is_seeded() -> None:
     low, high = bootstrap_interval(values, np.median, level=0.5)
     assert low < 49.5 < high
     assert np.isnan(bootstrap_interval([])[0])
+
+
+def test_direction_error_on_known_angles():
+    from imimic_gym.metrics import direction_error_deg
+
+    a = np.array([[1.0, 0, 0], [1.0, 0, 0], [0, 1.0, 0], [1.0, 0, 0]])
+    b = np.array([[1.0, 0, 0], [0, 0, 2.0], [0, -1.0, 0], [1.0, 1e-9, 0]])
+    np.testing.assert_allclose(direction_error_deg(a, b), [0, 90, 180, np.degrees(1e-9)],
+                               atol=1e-12)
+
+
+def test_spatial_metrics_leave_out_and_count_frames_without_reading():
+    from imimic_gym.metrics import spatial_metrics
+
+    t = 5
+    down = np.tile([0.0, 1.0, 0.0], (t, 1))
+    tilted = np.tile([0.0, np.cos(0.1), np.sin(0.1)], (t, 1))  # 0.1 rad off
+    flexion = np.full(t, 1.0)
+    read = np.array([True, True, True, False, True])
+    wrong = tilted.copy()
+    wrong[3] = [1.0, 0, 0]  # a held pose, far off, in the frame without a reading
+    out = spatial_metrics(down, wrong, flexion + np.array([0.1, -0.1, 0.1, 2.0, -0.1]),
+                          down, down, flexion, read)
+    assert out["forearm_direction_error_deg"] == pytest.approx(np.degrees(0.1))
+    assert out["upper_arm_direction_error_deg"] == 0.0
+    assert out["elbow_flexion_rmse_deg"] == pytest.approx(np.degrees(0.1))
+    assert (out["frames"], out["frames_without_reading"]) == (5, 1)
+    none = spatial_metrics(down, down, flexion, down, down, flexion, np.zeros(t, bool))
+    assert none["elbow_flexion_rmse_deg"] is None and none["frames_without_reading"] == 5
+
+
+def test_lag_leaves_out_frames_without_truth() -> None:
+    t = np.arange(120) / 30.0
+    truth = np.sin(2 * np.pi * 0.7 * t)
+    follower = np.roll(truth, 3)
+    gappy = truth.copy()
+    gappy[40:55] = np.nan  # frames without a label
+    assert lag_frames(truth, follower) == 3
+    assert lag_frames(gappy, follower) == 3
+    assert lag_frames(np.full(10, np.nan), np.zeros(10)) == 0

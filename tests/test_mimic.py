@@ -5,8 +5,13 @@ import json
 import math
 import os
 import re
+import signal
+import subprocess
+import sys
+import time
 
 import cv2
+import gymnasium as gym
 import numpy as np
 import pytest
 
@@ -64,6 +69,15 @@ def test_a_video_shorter_than_dons_window_is_named(servo_clip, tmp_path, capsys)
     assert main(["mimic", "--video", str(path), "--estimator", "don",
                  "--out", str(tmp_path / "out")]) == 2
     assert re.search(message, capsys.readouterr().err)
+
+
+def test_a_one_frame_video_is_one_line_from_the_command(servo_clip, tmp_path, capsys) -> None:
+    """The pose model reads a frame alone, but a run steps from a frame to the next."""
+    path = write_video(tmp_path / "one.mp4", servo_clip.frames[:1], servo_clip.fps)
+    assert main(["mimic", "--video", str(path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.splitlines() == [f"imimic mimic: {path} has 1 frames, fewer than the 2 that "
+                                "one step (from a frame to the next) needs"]
 
 
 def test_a_missing_video_is_one_line_from_the_command(tmp_path, capsys) -> None:
@@ -290,3 +304,104 @@ def test_the_writer_thread_keeps_what_was_written_and_hands_back_its_errors(tmp_
 
     with pytest.raises(ValueError, match="earlier frames"):
         write_behind(tmp_path / "bad.mp4", mixed(), 30.0, depth=2)
+
+
+def test_a_ctrl_c_before_the_first_frame_does_not_hang_the_writer(tmp_path) -> None:
+    """Ctrl-C while the first frame is being made: `write_behind` hands the KeyboardInterrupt
+    back at once (the writer, finding no frames, must not wait for a second end marker)."""
+    import threading
+
+    from imimic_gym.mimic import write_behind
+
+    def no_frame():
+        raise KeyboardInterrupt
+        yield
+
+    raised: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            write_behind(tmp_path / "none.mp4", no_frame(), 30.0)
+        except BaseException as error:
+            raised.append(error)
+
+    caller = threading.Thread(target=run, daemon=True)
+    caller.start()
+    caller.join(timeout=30)
+    assert not caller.is_alive(), "write_behind hung after a Ctrl-C before the first frame"
+    assert len(raised) == 1 and isinstance(raised[0], KeyboardInterrupt)
+
+
+class InterruptedRender(gym.Wrapper):
+    """Stands in for the user pressing Ctrl-C while a frame is being drawn (the costliest
+    part of a frame): the ``at``-th ``render`` raises KeyboardInterrupt."""
+
+    def __init__(self, env, at: int) -> None:
+        super().__init__(env)
+        self.calls, self.at = 0, at
+
+    def render(self):
+        self.calls += 1
+        if self.calls == self.at:
+            raise KeyboardInterrupt
+        return self.env.render()
+
+
+def test_a_frame_whose_drawing_ctrl_c_stops_is_in_no_output(servo_mp4, tmp_path) -> None:
+    """A Ctrl-C while frame 7 is drawn: the log, the CSV and the video all end at frame 6."""
+    from imimic_gym.controllers import EstimateTarget, PDController
+    from imimic_gym.mimic import MimicLog, csv_header, mimic_frames, write_behind
+    from imimic_gym.wrappers import RegistryObservation
+
+    clip = stream_video(servo_mp4, reference_direction=math.pi / 2)
+    env = RegistryObservation(InterruptedRender(
+        gym.make("ImitateVideo-v0", clip=clip, render_mode="rgb_array"), at=7), "don",
+        keep_frame=False)
+    log = MimicLog(fps=clip.fps)
+    with (tmp_path / "mimic.csv").open("w", newline="") as table:
+        rows = csv.writer(table)
+        rows.writerow(csv_header(1))
+        with pytest.raises(KeyboardInterrupt):
+            write_behind(tmp_path / "mimic.mp4",
+                         mimic_frames(env, PDController(env, EstimateTarget(env)), log, rows),
+                         clip.fps)
+    env.close()
+    clip.frames.close()
+    video = cv2.VideoCapture(str(tmp_path / "mimic.mp4"))
+    try:
+        assert int(video.get(cv2.CAP_PROP_FRAME_COUNT)) == 6
+    finally:
+        video.release()
+    assert len(log.time) == len(read_csv(tmp_path / "mimic.csv")) == 6
+
+
+def test_ctrl_c_stops_the_command_with_130_and_as_many_frames_in_video_as_in_json(
+        servo_mp4, tmp_path) -> None:
+    """A real SIGINT to `imimic mimic --video` mid-run (played at its own speed, 3 s):
+    exit code 130 as the other commands, and the video holds the frames the JSON counts."""
+    out = tmp_path / "out"
+    run = subprocess.Popen([sys.executable, "-m", "imimic_gym.cli", "mimic", "--video",
+                            str(servo_mp4), "--estimator", "don", "--realtime", "--out",
+                            str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                           text=True, env={**os.environ, "MUJOCO_GL": "egl"})
+    try:
+        deadline = time.monotonic() + 120
+        while (not (out / "mimic.csv").exists()
+               or len(read_csv(out / "mimic.csv")) < 10) and time.monotonic() < deadline:
+            assert run.poll() is None, run.communicate()[1][-2000:]
+            time.sleep(0.05)
+        run.send_signal(signal.SIGINT)
+        _, err = run.communicate(timeout=120)
+    finally:
+        if run.poll() is None:
+            run.kill()
+            run.communicate()
+    assert run.returncode == 130, err[-2000:]
+    summary = json.loads((out / "mimic.json").read_text())
+    assert summary["ended"] == "stopped by Ctrl-C" and 10 <= summary["frames"] < 90
+    video = cv2.VideoCapture(str(out / "mimic.mp4"))
+    try:
+        assert int(video.get(cv2.CAP_PROP_FRAME_COUNT)) == summary["frames"]
+    finally:
+        video.release()
+    assert len(read_csv(out / "mimic.csv")) == summary["frames"]

@@ -36,7 +36,7 @@ import torch
 from tqdm.auto import tqdm
 
 from imimic_gym.checkpoints import CheckpointError
-from imimic_gym.cli.common import at_least, positive
+from imimic_gym.cli.common import CommandError, at_least, check_writable, positive
 from imimic_gym.clips.annotations import (
     ARM_KEYPOINTS,
     AnnotationError,
@@ -277,6 +277,7 @@ def fit(model: CNNRefiner, x: torch.Tensor, y: torch.Tensor, test: tuple[list, l
 def main() -> None:
     started = time.time()
     args = parse_args()
+    check_writable("", "--json", args.json, program="train_cnn.py")
     torch.set_num_threads(args.threads)
     if args.eval_only:
         eval_only(args)
@@ -284,6 +285,9 @@ def main() -> None:
     run_name = f"{args.exp_name}_arm{args.links}__{args.seed}__{int(time.time())}"
     run_dir = Path("runs") / run_name
     out = Path(args.out) if args.out else run_dir / f"cnn_arm{args.links}.pt"
+    # Before the training, not after it: the trained model would be lost.
+    check_writable("", "--out" if args.out else "the checkpoint", str(out),
+                   program="train_cnn.py")
 
     # Seeding: the same seed gives the same batches, shifts and weights.
     random.seed(args.seed)
@@ -331,6 +335,7 @@ def main() -> None:
     save_model(model, out, metadata)
     print(f"wrote {out} and {out.with_suffix('.json')}; log in {run_dir / 'log.csv'}")
     if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         Path(args.json).write_text(json.dumps(metadata, indent=2) + "\n")
         print(f"wrote {args.json}")
 
@@ -338,6 +343,9 @@ def main() -> None:
 if __name__ == "__main__":
     try:
         main()
+    except CommandError as error:  # an output refused before any work
+        print(error, file=sys.stderr)
+        sys.exit(2)
     except (OSError, AnnotationError, CheckpointError) as error:  # the user's files
         print(f"train_cnn.py: {error}", file=sys.stderr)
         sys.exit(2)

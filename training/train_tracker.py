@@ -511,12 +511,15 @@ def search(args: Args) -> None:
 
 def _search_on_ray(args: Args, argvs: list[list[str]], run_dir: Path) -> dict[int, float]:
     """The trials as Ray Tune trials (one CPU each); their scores by trial index."""
-    from ray import tune
-
     from imimic_gym.backends import BackendError, ray_session
 
     try:
-        with ray_session(args.address or None):
+        with ray_session(args.address or None):  # says what to install if Ray is missing
+            try:
+                from ray import tune
+            except ImportError as error:
+                raise BackendError(f"--search on Ray needs Ray Tune ({error}): pip install "
+                                   "'ray[tune]'") from error
             tuner = tune.Tuner(
                 tune.with_resources(tune.with_parameters(_tune_trial, argvs=argvs),
                                     {"cpu": 1}),

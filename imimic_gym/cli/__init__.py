@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import select
 import sys
 from pathlib import Path
 from typing import Any
@@ -20,7 +22,7 @@ from imimic_gym.cli.common import (
 )
 from imimic_gym.cli.evaluate import add_eval
 from imimic_gym.cli.mimic import add_label, add_mimic
-from imimic_gym.interrupts import CTRL_C, is_ctrl_c
+from imimic_gym.interrupts import CTRL_C, is_ctrl_c, restore_ctrl_c
 
 
 def _demo_estimator(requested: str | None, scenario: str) -> str:
@@ -92,6 +94,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 
 def cmd_clip(args: argparse.Namespace) -> int:
+    from imimic_gym.clips.annotations import write_clip_truth
     from imimic_gym.clips.cache import load_clip
     from imimic_gym.clips.scenarios import get_scenario
     from imimic_gym.clips.video_writer import write_video
@@ -106,21 +109,8 @@ def cmd_clip(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     stem = out / f"{args.scenario}-seed{args.seed}"
     write_video(stem.with_suffix(".mp4"), clip.frames, clip.fps)
-    truth = clip.truth
-    assert truth is not None
-    stem.with_suffix(".json").write_text(json.dumps({
-        "meta": clip.meta,
-        "fps": clip.fps,
-        "units": {"angles": "rad", "angular_velocity": "rad/s",
-                  "angular_acceleration": "rad/s^2", "keypoints": "pixels (x, y)"},
-        "keypoint_names": list(truth.keypoint_names),
-        "angles": truth.angles.tolist(),
-        "angular_velocity": truth.angular_velocity.tolist(),
-        "angular_acceleration": truth.angular_acceleration.tolist(),
-        "keypoints": truth.keypoints.round(2).tolist(),
-        "visible": truth.visible.tolist(),
-        "occlusion": truth.occlusion.round(4).tolist(),
-    }) + "\n")
+    assert clip.truth is not None
+    write_clip_truth(stem.with_suffix(".json"), clip.truth, clip.meta, clip.fps)
     print(f"wrote {stem.with_suffix('.mp4')} and {stem.with_suffix('.json')} "
           f"({len(clip)} frames, {clip.width}x{clip.height}, {clip.fps:g} fps)")
     return 0
@@ -238,7 +228,9 @@ def build_parser() -> argparse.ArgumentParser:
         "clip", help="render a scenario to an mp4 plus a truth JSON",
         description="Render a scenario (or take it from the cache) and write "
                     "<scenario>-seed<k>.mp4 and .json with the per-frame ground truth: joint "
-                    "angles, velocities, accelerations, keypoints, visibility, occlusion.",
+                    "angles, velocities, accelerations, keypoints, visibility, occlusion. "
+                    "ImitateVideo-v0(clip=<the mp4>, annotations=<the json>) reads them "
+                    "back.",
     )
     _add_clip_choice(clip, names, "default")
     clip.add_argument("--out", default="clips_out", help="output folder (default: %(default)s)")
@@ -277,24 +269,56 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+# Exit code when the reader of the output went away (`imimic scenarios | head -1`): what a
+# shell reports for Unix tools that SIGPIPE ends, 128 + 13, so `set -o pipefail` sees the
+# same as for them.
+STOPPED_READING = 141
+
+
+def _output_closed() -> bool:
+    """Whether standard output is a pipe whose reader has gone (another pipe may have
+    broken); if so, standard output is pointed at the null device, so that Python's flush
+    at exit does not fail again on what is still buffered for it."""
+    try:
+        fd = sys.stdout.fileno()
+        poller = select.poll()
+    except (AttributeError, OSError, ValueError):  # no file descriptor, or no poll()
+        return False
+    poller.register(fd, select.POLLOUT)
+    if not any(events & select.POLLERR for _, events in poller.poll(0)):
+        return False
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, fd)
+    os.close(devnull)
+    return True
+
+
 def main(argv: list[str] | None = None) -> int:
     from imimic_gym.clips.cache import CacheSettingError
 
-    args = build_parser().parse_args(argv)
+    command = "imimic"
     try:
+        restore_ctrl_c()  # a Ctrl-C from here on is caught below
+        args = build_parser().parse_args(argv)
+        command = f"imimic {args.command}"
         return int(args.func(args))
     except CommandError as error:
         print(error, file=sys.stderr)
         raise
+    except BrokenPipeError as error:  # whoever read the output stopped (| head): no error
+        if not _output_closed():
+            print(f"{command}: {error}", file=sys.stderr)
+            return 2
+        return STOPPED_READING
     except OSError as error:  # a folder or file the user named (--out, --video, ...)
-        print(f"imimic {args.command}: {error}", file=sys.stderr)
+        print(f"{command}: {error}", file=sys.stderr)
         return 2
     except CacheSettingError as error:
-        print(f"imimic {args.command}: {error}", file=sys.stderr)
+        print(f"{command}: {error}", file=sys.stderr)
         return 2
     except CTRL_C as error:  # commands that keep partial work catch it themselves
         if not is_ctrl_c(error):
             raise
-        print(f"imimic {args.command}: stopped by Ctrl-C", file=sys.stderr)
+        print(f"{command}: stopped by Ctrl-C", file=sys.stderr)
         return 130
 

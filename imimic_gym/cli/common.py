@@ -7,6 +7,7 @@ import argparse
 import json
 import math
 import os
+import tempfile
 from pathlib import Path
 
 
@@ -85,24 +86,44 @@ def save_json(path: str | None, data: object) -> None:
         print(f"wrote {path}")
 
 
-def check_writable(command: str, flag: str, path: str | None, folder: bool = False) -> None:
+def check_writable(command: str, flag: str, path: str | None, folder: bool = False,
+                   program: str | None = None) -> None:
     """Refuse, before any work, an output ``path`` (given as ``flag``; a folder if
     ``folder``, else a file) that cannot be written: a file where a folder is wanted or
     the reverse, a file on the way to it, or a folder this user may not write in. Folders
-    on the way that do not exist yet are fine (they are made). Nothing for no path."""
+    on the way that do not exist yet are fine (they are made). Nothing for no path. The
+    message starts with ``program`` (default: "imimic ``command``")."""
     if not path:
         return
+    lead = program or f"imimic {command}"
     target = Path(path)
     wanted = "folder" if folder else "file"
     if target.exists() and target.is_dir() != folder:
-        raise CommandError(f"imimic {command}: {flag} {path} is a "
+        raise CommandError(f"{lead}: {flag} {path} is a "
                            f"{'file' if folder else 'folder'}; expected a {wanted} to write")
     nearest = next(p for p in (target, *target.parents) if p.exists())
     if not nearest.is_dir() and nearest != target:
-        raise CommandError(f"imimic {command}: {flag} {path}: {nearest} is a file, not a "
-                           "folder")
-    if not os.access(nearest, os.W_OK):
-        raise CommandError(f"imimic {command}: {flag} {path}: {nearest} is not writable")
+        raise CommandError(f"{lead}: {flag} {path}: {nearest} is a file, not a folder")
+    if not _can_write(nearest):
+        raise CommandError(f"{lead}: {flag} {path}: {nearest} is not writable")
+
+
+def _can_write(existing: Path) -> bool:
+    """Whether this process can write the file ``existing`` or make a file in the folder
+    ``existing``, found by trying (an empty file made and removed): permissions alone do
+    not tell, as root's are granted on a read-only or virtual file system."""
+    if not os.access(existing, os.W_OK):
+        return False
+    try:
+        if existing.is_dir():
+            with tempfile.NamedTemporaryFile(dir=existing, prefix=".imimic-write-check-"):
+                pass
+        else:
+            with existing.open("ab"):
+                pass
+    except OSError:
+        return False
+    return True
 
 
 def print_table(rows: dict[str, object]) -> None:

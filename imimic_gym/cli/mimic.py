@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import cast
+from typing import Any, cast
 
 from imimic_gym.cli.common import (
     CommandError,
@@ -19,8 +19,10 @@ from imimic_gym.cli.common import (
     unit_interval,
 )
 
-# What `imimic mimic` runs unless told: it finds a person and their moving arm by itself.
+# What `imimic mimic` runs unless told: it finds a person and their moving arm by itself;
+# with --robot, it reads that arm in 3-D.
 MIMIC_ESTIMATOR = "pose"
+SPATIAL_ESTIMATOR = "pose3d"
 
 
 def cmd_mimic(args: argparse.Namespace) -> int:
@@ -28,7 +30,19 @@ def cmd_mimic(args: argparse.Namespace) -> int:
     from imimic_gym.clips.video import VideoFormatError, VideoOpenError
     from imimic_gym.estimators.registry import get_estimator
 
+    spatial = args.robot is not None
+    if args.estimator is None:
+        args.estimator = SPATIAL_ESTIMATOR if spatial else MIMIC_ESTIMATOR
     entry = get_estimator(args.estimator)
+    if entry.spatial and not spatial:
+        raise CommandError(f"imimic mimic: {args.estimator} reads the arm in 3-D; give "
+                           f"--robot so101 for a robot that moves in space (the planar arm "
+                           f"copies planar estimators' joint angles)")
+    if spatial and not entry.spatial:
+        raise CommandError(f"imimic mimic: --robot {args.robot} copies an arm read in 3-D; "
+                           f"{args.estimator} reads angles in the image plane (use pose3d, "
+                           f"the default with --robot, or pose-world)")
+    _check_robot_options(args)
     if args.pivot and "pivot" not in entry.params:
         raise CommandError(f"imimic mimic: --pivot is DON's; {args.estimator} finds the joints "
                          "itself")
@@ -57,6 +71,73 @@ def cmd_mimic(args: argparse.Namespace) -> int:
     except (VideoOpenError, VideoFormatError) as err:
         print(f"imimic mimic: {err}", file=sys.stderr)
         return 2
+
+
+def _check_robot_options(args: argparse.Namespace) -> None:
+    """The real arm's options belong together: --port or --dry-run need --robot and a
+    calibration; the planar arm's own options are not the SO-101's."""
+    spatial = args.robot is not None
+    bus = args.port is not None or args.dry_run
+    if not spatial:
+        for option, given in (("--port", args.port is not None), ("--dry-run", args.dry_run),
+                              ("--calibration", args.calibration is not None),
+                              ("--robot-id", args.robot_id is not None)):
+            if given:
+                raise CommandError(f"imimic mimic: {option} is for a real SO-101: give "
+                                   f"--robot so101 with it")
+        return
+    for option, given in (("--serial", args.serial is not None), ("--links", args.links != 1),
+                          ("--joint-range", args.joint_range is not None),
+                          ("--control", args.control != "position"),
+                          ("--pivot", args.pivot is not None)):
+        if given:
+            raise CommandError(f"imimic mimic: {option} is the planar arm's; with --robot "
+                               f"{args.robot} the arm is read in 3-D (--port drives the real "
+                               f"SO-101)")
+    if bus and args.calibration is None and args.robot_id is None:
+        raise CommandError("imimic mimic: the SO-101's bus needs its LeRobot calibration: "
+                           "--calibration FILE.json or --robot-id ID (the id you calibrated "
+                           "it under with lerobot-calibrate)")
+    if not bus and (args.calibration is not None or args.robot_id is not None):
+        raise CommandError("imimic mimic: --calibration and --robot-id calibrate the real "
+                           "arm: give --port PORT (or --dry-run) with them")
+
+
+def _open_bus(args: argparse.Namespace) -> Any:
+    """The SO-101's bus, connected (nothing is written before every servo answered), or
+    None without --port/--dry-run. Problems are one line (`CommandError`)."""
+    if args.port is None and not args.dry_run:
+        return None
+    from imimic_gym.hardware import (
+        BusError,
+        CalibrationError,
+        SO101Bus,
+        find_calibration,
+        load_calibration,
+    )
+
+    try:
+        calibration = (load_calibration(args.calibration) if args.calibration is not None
+                       else find_calibration(args.robot_id))
+    except CalibrationError as error:
+        raise CommandError(f"imimic mimic: {error}") from None
+    log = None
+    if args.dry_run:  # the packets go to a file, not through the progress bar
+        Path(args.out).mkdir(parents=True, exist_ok=True)
+        log = (Path(args.out) / "bus.log").open("w", buffering=1)
+    try:
+        bus = SO101Bus(args.port or "(dry run)", calibration, max_step_deg=args.max_step_deg,
+                       on_exit=args.on_exit, dry_run=log or False)
+        bus.connect()
+    except (BusError, ValueError) as error:
+        if log is not None:
+            log.close()
+        raise CommandError(f"imimic mimic: {error}") from None
+    where = (f"a dry run: the packets go to {Path(args.out) / 'bus.log'}" if args.dry_run
+             else args.port)
+    print(f"  SO-101 on {where}; at most {args.max_step_deg:g} degrees a frame; on exit, "
+          f"{args.on_exit}")
+    return bus
 
 
 def _mimic(args: argparse.Namespace) -> int:
@@ -97,6 +178,12 @@ def _mimic(args: argparse.Namespace) -> int:
             servo.close()
         raise
     frames = cast(FrameStream, clip.frames)  # stream_video's clip streams its frames
+    if args.robot is not None:  # the footage opened: now the arm, which then holds
+        try:
+            servo = _open_bus(args)
+        except BaseException:
+            frames.close()
+            raise
     print(f"imimic mimic: {clip.meta['path']} ({clip.width}x{clip.height}, {clip.fps:g} fps"
           f"{', live' if live else ''}"
           f"{f', {len(clip)} frames' if frames.length_known else ''}), "
@@ -113,13 +200,19 @@ def _mimic(args: argparse.Namespace) -> int:
         params["arm"] = args.arm
     summary = run_mimic(clip, args.out, estimator=args.estimator, control=args.control,
                         estimator_params=params, servo=servo,
-                        realtime=not live and (args.realtime or servo is not None),
-                        preview_height=args.preview_height or None)
+                        realtime=not live and (args.realtime or (
+                            servo is not None and not args.dry_run)),
+                        preview_height=args.preview_height or None, robot=args.robot)
     out = Path(args.out)
     print(f"{summary['ended']}: wrote {out / 'mimic.mp4'}, {out / 'angles.png'}, "
           f"{out / 'mimic.csv'}, {out / 'mimic.json'}")
     print_table({k: v for k, v in summary.items() if k not in ("source",)})
-    return 0
+    if summary["ended"].startswith("stopped: "):  # the robot's port was lost mid-run
+        print(f"imimic mimic: {summary['ended']}", file=sys.stderr)
+        return 1
+    # Stopped early, as every command stopped by Ctrl-C: not the success a following
+    # command expects.
+    return 130 if summary["ended"] == "stopped by Ctrl-C" else 0
 
 
 def cmd_label(args: argparse.Namespace) -> int:
@@ -192,11 +285,37 @@ def add_mimic(sub: argparse._SubParsersAction) -> None:
     where.add_argument("--camera", default=None, metavar="INDEX|URL",
                        help="a live camera index (0) or stream URL; shows frames/s and "
                             "latency, stops on Ctrl-C or when the camera disappears")
-    mimic.add_argument("--estimator", default=MIMIC_ESTIMATOR,
+    mimic.add_argument("--estimator", default=None,
                        choices=estimator_names(video_only=True),
-                       help="the vision estimator (default: %(default)s, which finds a "
-                            "person by itself; don is the paper's, for a lone moving link "
-                            "such as the servo)")
+                       help=f"the vision estimator (default: {MIMIC_ESTIMATOR}, which finds a "
+                            f"person by itself, or {SPATIAL_ESTIMATOR} with --robot, which "
+                            f"reads their arm in 3-D; don is the paper's, for a lone moving "
+                            f"link such as the servo)")
+    robot = mimic.add_argument_group(
+        "a robot arm in space (docs: README, 'Drive your SO-101')")
+    robot.add_argument("--robot", default=None, choices=("so101",),
+                       help="copy the arm read in 3-D onto this robot (default: the planar "
+                            "arm of the image plane); the SO-101's joint targets go into "
+                            "mimic.csv in LeRobot's names and units")
+    robot.add_argument("--port", default=None, metavar="PORT",
+                       help="also drive the real SO-101 on its bus adapter's port "
+                            "(/dev/ttyACM0): goal positions through your LeRobot "
+                            "calibration, at the footage's own speed")
+    robot.add_argument("--calibration", default=None, metavar="FILE",
+                       help="the arm's LeRobot calibration JSON (or --robot-id)")
+    robot.add_argument("--robot-id", default=None, metavar="ID",
+                       help="the id the arm was calibrated under with lerobot-calibrate; "
+                            "its file is found where LeRobot keeps it")
+    robot.add_argument("--max-step-deg", type=positive, default=4.0, metavar="DEG",
+                       help="most a joint's goal moves per frame, motor degrees (default: "
+                            "%(default)s, 120 degrees/s at 30 frames/s)")
+    robot.add_argument("--on-exit", default="torque-off", choices=("torque-off", "hold"),
+                       help="at the end, on Ctrl-C and on any error: release the servos "
+                            "(the arm goes limp) or hold the last pose (default: "
+                            "%(default)s)")
+    robot.add_argument("--dry-run", action="store_true",
+                       help="print the packets the bus would get (hex and meaning) instead "
+                            "of opening --port")
     mimic.add_argument("--links", type=int, default=1,
                        help="moving links to copy, a chain (default: %(default)s; DON "
                             "handles 1 to 3, the CNN 1 or 2)")

@@ -54,11 +54,14 @@ __all__ = [
     "ArmAnnotation",
     "arm_keypoints_from_coco",
     "image_path",
+    "is_clip_truth",
     "keypoints_to_angles",
     "read_annotations",
+    "read_clip_truth",
     "truth_from_coco",
     "truth_from_keypoints",
     "write_annotations",
+    "write_clip_truth",
 ]
 
 ARM_KEYPOINTS = ("shoulder", "elbow", "wrist")
@@ -318,9 +321,13 @@ def arm_keypoints_from_coco(path: str | Path, n_frames: int,
 
 
 def truth_from_keypoints(keypoints: np.ndarray, labelled: np.ndarray, fps: float, n_links: int,
-                         reference_direction: float, source: str = "annotations") -> ClipTruth:
+                         reference_direction: float, source: str = "annotations",
+                         angles: np.ndarray | None = None) -> ClipTruth:
     """Truth angles from shoulder, elbow, wrist keypoints (T, 3, 2) and labels (T, 3).
-    See the module docstring for the convention."""
+    See the module docstring for the convention. ``angles`` (T, n_links) rad: the
+    labelled frames' angles when the caller has them (the keypoints' angles kept within
+    a robot's joint ranges, `labels.within_ranges`); None computes them from the
+    keypoints. The truth's ``labelled`` marks the frames with all three keypoints."""
     if n_links not in (1, 2):
         raise ValueError(f"annotated arms have 1 or 2 links (forearm; upper arm and "
                          f"forearm), got n_links={n_links}")
@@ -328,11 +335,15 @@ def truth_from_keypoints(keypoints: np.ndarray, labelled: np.ndarray, fps: float
     if not complete.any():
         raise AnnotationError(f"{source}: no frame has shoulder, elbow and wrist all labelled")
 
-    angles = keypoints_to_angles(np.nan_to_num(keypoints), n_links, reference_direction)
+    # Angles within a joint range are filled in within it (the way the robot turns);
+    # free ones the short way round.
+    within = angles is not None
+    if angles is None:
+        angles = keypoints_to_angles(np.nan_to_num(keypoints), n_links, reference_direction)
     t = np.arange(len(angles))
-    filled = np.empty_like(angles)
+    filled = np.empty_like(angles, dtype=np.float64)
     for j in range(n_links):
-        known = np.unwrap(angles[complete, j])
+        known = angles[complete, j] if within else np.unwrap(angles[complete, j])
         filled[:, j] = np.interp(t, t[complete], known)
     dt = 1.0 / fps
     velocity = np.gradient(filled, dt, axis=0) if len(t) > 1 else np.zeros_like(filled)
@@ -350,6 +361,7 @@ def truth_from_keypoints(keypoints: np.ndarray, labelled: np.ndarray, fps: float
         visible=labelled.copy(),
         occlusion=np.zeros(len(t), dtype=np.float32),
         keypoint_names=ARM_KEYPOINTS,
+        labelled=complete.copy(),
     )
 
 
@@ -359,3 +371,80 @@ def truth_from_coco(path: str | Path, n_frames: int, fps: float, n_links: int,
     keypoints, labelled = arm_keypoints_from_coco(path, n_frames, side=side)
     return truth_from_keypoints(keypoints, labelled, fps, n_links, reference_direction,
                                 source=str(path))
+
+
+# The truth file `imimic clip` writes beside its video -----------------------------------
+# What of a rendered clip's meta a robot is built from (`scenarios.robot_for_clip`) and
+# what names the clip; the rest (its cache key, its source) describes the rendering.
+TRUTH_META_KEYS = ("scenario", "seed", "n_links", "demonstrator", "reference_direction",
+                   "joint_ranges", "arm_plane")
+_TRUTH_ARRAYS = ("angles", "angular_velocity", "angular_acceleration", "keypoints",
+                 "visible", "occlusion")
+
+
+def write_clip_truth(path: str | Path, truth: ClipTruth, meta: dict[str, Any],
+                     fps: float) -> None:
+    """Write a clip's per-frame truth as JSON (`imimic clip`'s ``<scenario>-seed<k>.json``):
+    ``meta``, ``fps``, ``units``, ``keypoint_names``, the `ClipTruth` arrays (angles rad,
+    velocities rad/s, accelerations rad/s^2, keypoints pixels (x, y) to 1/100, visible,
+    occlusion to 1/10000) and ``labelled`` where the truth marks frames without one.
+    `read_clip_truth` reads it back, and so does ``ImitateVideo-v0(clip=<the mp4>,
+    annotations=<this file>)``."""
+    data: dict[str, Any] = {
+        "meta": meta,
+        "fps": fps,
+        "units": {"angles": "rad", "angular_velocity": "rad/s",
+                  "angular_acceleration": "rad/s^2", "keypoints": "pixels (x, y)"},
+        "keypoint_names": list(truth.keypoint_names),
+        "angles": truth.angles.tolist(),
+        "angular_velocity": truth.angular_velocity.tolist(),
+        "angular_acceleration": truth.angular_acceleration.tolist(),
+        "keypoints": truth.keypoints.round(2).tolist(),
+        "visible": truth.visible.tolist(),
+        "occlusion": truth.occlusion.round(4).tolist(),
+    }
+    if truth.labelled is not None:
+        data["labelled"] = truth.labelled.tolist()
+    Path(path).write_text(json.dumps(data) + "\n")
+
+
+def is_clip_truth(data: Any) -> bool:
+    """Whether parsed JSON ``data`` is a truth file of `write_clip_truth` (not COCO)."""
+    return isinstance(data, dict) and "angles" in data and "images" not in data
+
+
+def read_clip_truth(path: str | Path) -> tuple[ClipTruth, dict[str, Any]]:
+    """The `ClipTruth` of a `write_clip_truth` file and the ``meta`` entries a robot is
+    built from (`TRUTH_META_KEYS` that it has).
+
+    Raises:
+        AnnotationError: not JSON, a missing array, arrays of unequal length or shape.
+    """
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except FileNotFoundError as err:
+        raise AnnotationError(f"{path}: no such annotation file") from err
+    except json.JSONDecodeError as err:
+        raise AnnotationError(f"{path}: not valid JSON ({err})") from err
+    if not is_clip_truth(data):
+        raise AnnotationError(f"{path} is not a clip's truth file (imimic clip): it needs "
+                              "an 'angles' key")
+    for key in (*_TRUTH_ARRAYS, "keypoint_names"):
+        _need(data, key, "the truth file", path)
+    labelled = data.get("labelled")
+    try:
+        truth = ClipTruth(
+            angles=np.asarray(data["angles"], dtype=np.float64),
+            angular_velocity=np.asarray(data["angular_velocity"], dtype=np.float64),
+            angular_acceleration=np.asarray(data["angular_acceleration"], dtype=np.float64),
+            keypoints=np.asarray(data["keypoints"], dtype=np.float32),
+            visible=np.asarray(data["visible"], dtype=bool),
+            occlusion=np.asarray(data["occlusion"], dtype=np.float32),
+            keypoint_names=tuple(str(n) for n in data["keypoint_names"]),
+            labelled=None if labelled is None else np.asarray(labelled, dtype=bool),
+        )
+    except (ValueError, TypeError) as err:
+        raise AnnotationError(f"{path}: {err}") from err
+    meta = data.get("meta") if isinstance(data.get("meta"), dict) else {}
+    return truth, {k: meta[k] for k in TRUTH_META_KEYS if k in meta}

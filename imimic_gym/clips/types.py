@@ -67,6 +67,9 @@ class ClipTruth:
         points2d: with ``points3d``: (T, 7, 2) float64 pixels (x, y), their projections.
         arm_angles: with ``points3d``: (T, 5) float64 rad, the arm's joint angles in
             `clips.gestures.SPATIAL_JOINTS` order.
+        labelled: (T,) bool, the frames whose truth was read (annotated, or read by the
+            pose model); the others' angles are filled in between them and are no truth.
+            None: every frame (rendered truth).
     """
 
     angles: np.ndarray
@@ -79,6 +82,7 @@ class ClipTruth:
     points3d: np.ndarray | None = None
     points2d: np.ndarray | None = None
     arm_angles: np.ndarray | None = None
+    labelled: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         t, n = self.angles.shape if self.angles.ndim == 2 else (None, None)
@@ -98,6 +102,12 @@ class ClipTruth:
                                    ("arm_angles", self.arm_angles, (t, 5))):
             if value is not None:
                 _check(f"truth.{name}", value, shape, np.float64)
+        if self.labelled is not None:
+            _check("truth.labelled", self.labelled, (t,), np.bool_)
+
+    def has_label(self, frame: int) -> bool:
+        """Whether frame ``frame``'s angles were read rather than filled in."""
+        return self.labelled is None or bool(self.labelled[frame])
 
     @property
     def n_joints(self) -> int:

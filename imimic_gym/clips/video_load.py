@@ -7,10 +7,11 @@ import math
 import os
 from collections.abc import Generator, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from imimic_gym.clips.types import Clip
+from imimic_gym.clips.types import Clip, ClipTruth
 from imimic_gym.clips.video import (
     DEFAULT_JOINT_RANGE,
     DEFAULT_REFERENCE_DIRECTION,
@@ -41,23 +42,42 @@ def load_video(
         source: the file (or image pattern, see `VideoReader`).
         annotations: a COCO-keypoints JSON with shoulder, elbow and wrist per frame (see
             `imimic_gym.clips.annotations`); it becomes ``clip.truth``. ``"pose"``: the
-            pose model's arm is the truth (pseudo-truth, `imimic_gym.labels`: frames it
-            is unsure of are interpolated; kept in the clip cache, so a second load of
-            the same file does not run the model again). None: no truth.
-        n_links: moving links the robot copies (1: the forearm, 2: upper arm and forearm).
+            pose model's arm is the truth (pseudo-truth, `imimic_gym.labels.pose_truth`:
+            one arm for the whole video; kept in the clip cache, so a second load of the
+            same file does not run the model again). Either way a person's arm: its
+            angles are kept within a human arm's ranges, frames without a reading are
+            filled in and marked (``truth.labelled``). Or the truth JSON that ``imimic
+            clip`` writes beside its video (`clips.annotations.write_clip_truth`): the
+            clip's own truth and robot geometry. None: no truth.
+        n_links: moving links the robot copies (1: the forearm, 2: upper arm and forearm);
+            a truth JSON has its own.
         reference_direction: image direction of the fixed reference link, rad CCW from
             image right (default: image down).
-        joint_ranges: per link (low, high) rad; default `DEFAULT_JOINT_RANGE` each.
+        joint_ranges: per link (low, high) rad; default a human arm's
+            (`estimators.pose.human_joint_ranges`) for a video annotated with a person's
+            arm, else `DEFAULT_JOINT_RANGE` each (the servo's).
         fps: frame rate for sources that report none.
         max_frames: read at most this many frames (memory: T x H x W x 3 bytes).
         side: which arm the annotations describe: "left", "right" or "auto".
 
     ``meta`` holds ``reference_direction`` and ``joint_ranges`` (so the env builds a
     matching robot), ``skipped_frames`` (corrupt frames left out) and, with truth,
-    ``truth_source`` ("annotations" or "pose").
+    ``truth_source`` ("annotations", "pose", or "render" for a truth JSON).
     """
-    from imimic_gym.clips.annotations import truth_from_coco
+    from imimic_gym.clips.annotations import arm_keypoints_from_coco, read_clip_truth
 
+    file_truth: ClipTruth | None = None
+    geometry: dict[str, Any] = {}
+    if annotations is not None and annotations != "pose" and _is_truth_file(annotations):
+        file_truth, geometry = read_clip_truth(annotations)
+        n_links = int(geometry.get("n_links", file_truth.n_joints))
+        reference_direction = float(geometry.get("reference_direction", reference_direction))
+        if joint_ranges is None and "joint_ranges" in geometry:
+            joint_ranges = [(float(lo), float(hi)) for lo, hi in geometry["joint_ranges"]]
+    elif annotations is not None and joint_ranges is None:
+        from imimic_gym.estimators.pose import human_joint_ranges
+
+        joint_ranges = human_joint_ranges(n_links)
     ranges = tuple(joint_ranges) if joint_ranges is not None else (DEFAULT_JOINT_RANGE,) * n_links
     reader = VideoReader(source, fps=fps)
     stream = iter(reader)
@@ -65,23 +85,60 @@ def load_video(
     meta = {**video_meta(reader, n_links, reference_direction, ranges),
             "skipped_frames": reader.skipped_frames}
     truth = None
-    if annotations == "pose":
+    if file_truth is not None:
+        assert annotations is not None
+        truth = _truth_of_frames(file_truth, len(stacked), annotations)
+        meta.update({k: v for k, v in geometry.items() if k != "joint_ranges"},
+                    annotations=str(annotations), truth_source="render")
+    elif annotations == "pose":
         # Pseudo-truth: the pose model's arm on the frames it is sure of (`labels.py`).
-        from imimic_gym.clips.annotations import truth_from_keypoints
-        from imimic_gym.labels import video_labels
+        from imimic_gym.labels import pose_truth
 
         arm = side if side in ("left", "right") else "auto"
-        labels = video_labels(source, stacked, reader.fps, arm=arm)
-        truth = truth_from_keypoints(labels.keypoints, np.repeat(labels.labelled[:, None], 3,
-                                                                 axis=1),
-                                     reader.fps, n_links, reference_direction,
-                                     source=f"the pose model on {source}")
+        truth = pose_truth(source, stacked, reader.fps, n_links, reference_direction, arm=arm)
         meta.update(annotations="pose", truth_source="pose")
     elif annotations is not None:
-        truth = truth_from_coco(annotations, len(stacked), reader.fps, n_links,
-                                reference_direction, side=side)
+        from imimic_gym.labels import human_truth
+
+        keypoints, labelled = arm_keypoints_from_coco(annotations, len(stacked), side=side)
+        truth = human_truth(keypoints, labelled, reader.fps, n_links, reference_direction,
+                            source=str(annotations))
         meta.update(annotations=str(annotations), truth_source="annotations")
     return Clip(frames=stacked, fps=reader.fps, truth=truth, meta=meta)
+
+
+def _is_truth_file(annotations: str | Path) -> bool:
+    """Whether ``annotations`` is a clip's truth JSON (`imimic clip`) rather than COCO;
+    a file that cannot be read is left to the COCO reader to report."""
+    import json
+
+    from imimic_gym.clips.annotations import is_clip_truth
+
+    try:
+        return is_clip_truth(json.loads(Path(annotations).read_text()))
+    except (OSError, ValueError):
+        return False
+
+
+def _truth_of_frames(truth: ClipTruth, n_frames: int, annotations: str | Path) -> ClipTruth:
+    """``truth`` of a truth JSON cut to the ``n_frames`` frames read (``max_frames``);
+    AnnotationError when it has fewer."""
+    from dataclasses import replace
+
+    from imimic_gym.clips.annotations import AnnotationError
+
+    have = len(truth.angles)
+    if have < n_frames:
+        raise AnnotationError(f"{annotations} has truth for {have} frames, but the video "
+                              f"has {n_frames}")
+    if have == n_frames:
+        return truth
+    cut = slice(0, n_frames)
+    return replace(truth, angles=truth.angles[cut], angular_velocity=truth.angular_velocity[cut],
+                   angular_acceleration=truth.angular_acceleration[cut],
+                   keypoints=truth.keypoints[cut], visible=truth.visible[cut],
+                   occlusion=truth.occlusion[cut],
+                   labelled=None if truth.labelled is None else truth.labelled[cut])
 
 
 def video_memory_limit() -> float:

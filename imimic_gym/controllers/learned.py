@@ -79,7 +79,7 @@ class TrackerFeatures:
         inner = imitate_env(env)
         low, high = (np.asarray(r) for r in zip(*inner.arm.joint_ranges, strict=True))
         self.mid, self.half = (low + high) / 2, (high - low) / 2
-        self.n = inner.arm.n_links
+        self.n = inner.arm.n_joints
         self.dt = 1.0 / float(inner.clip.fps)
         self.fields = estimate_fields(self.n)
         self.history, self.rate_history = history, rate_history

@@ -70,7 +70,7 @@ class EstimateTarget:
 
     def __init__(self, env: gym.Env, lead_frames: float = 1.0) -> None:
         inner = imitate_env(env)
-        self.fields = estimate_fields(inner.arm.n_links)
+        self.fields = estimate_fields(inner.arm.n_joints)
         self.lead_s = lead_frames / float(inner.clip.fps)
         self.reset()
 

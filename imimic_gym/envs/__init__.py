@@ -1,3 +1,4 @@
 from imimic_gym.envs.imitate_video import ImitateVideoEnv
+from imimic_gym.envs.imitate_video_3d import ImitateVideo3DEnv
 
-__all__ = ["ImitateVideoEnv"]
+__all__ = ["ImitateVideo3DEnv", "ImitateVideoEnv"]

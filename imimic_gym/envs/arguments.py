@@ -5,14 +5,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from imimic_gym.arms import CONTROL_MODES, MAX_LINKS
-from imimic_gym.clips.types import MODALITIES
+from imimic_gym.clips.types import MODALITIES, Clip
 
-__all__ = ["MAX_SIDE", "check_arguments"]
+__all__ = ["MAX_SIDE", "check_arguments", "check_sources"]
 
 MAX_SIDE = 4096  # px: frames and renders (MuJoCo's offscreen buffer fails far past this)
 
@@ -42,3 +43,24 @@ def check_arguments(control: str, modality: str, render_mode: str | None,
         if not (isinstance(weight, (int, float, np.number)) and math.isfinite(weight)
                 and weight >= 0):
             raise ValueError(f"{name} must be a finite number >= 0, got {weight!r}")
+
+
+def check_sources(clip: Any, annotations: Any, clip_seeds: Any) -> None:
+    """``clip`` None, a video path or a `Clip`; ``annotations`` None, "pose" or the path of
+    a labels file (not a folder); ``clip_seeds`` a sequence of whole numbers."""
+    if clip is not None and not isinstance(clip, (str, Path, Clip)):
+        raise ValueError(f"clip must be a video file's path or a Clip, got {clip!r}")
+    if annotations is not None:
+        if not isinstance(annotations, (str, Path)):
+            raise ValueError(f"annotations must be 'pose' or the path of a labels file "
+                             f"(COCO-keypoints JSON), got {annotations!r}")
+        if annotations != "pose" and Path(annotations).is_dir():
+            raise ValueError(f"annotations must be 'pose' or the path of a labels file "
+                             f"(COCO-keypoints JSON), got the folder {str(annotations)!r}")
+    whole = (isinstance(clip_seeds, (Sequence, np.ndarray))
+             and not isinstance(clip_seeds, (str, bytes))
+             and all(isinstance(seed, (int, np.integer)) and not isinstance(seed, bool)
+                     for seed in clip_seeds))
+    if not whole:
+        raise ValueError(f"clip_seeds must be a sequence of whole numbers (clip seeds, such "
+                         f"as (0, 1)), got {clip_seeds!r}")

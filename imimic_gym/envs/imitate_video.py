@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import cv2
 import gymnasium as gym
@@ -14,14 +14,15 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import EzPickle
 
-from imimic_gym.arms import ArmSpec, Control, build_arm_model
+from imimic_gym.arms import ArmSpec, Control
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import ClipSpec, get_scenario, robot_for_clip
 from imimic_gym.clips.types import Clip, depth_to_frame
-from imimic_gym.envs.arguments import check_arguments
+from imimic_gym.envs.arguments import check_arguments, check_sources
 from imimic_gym.estimators.types import Estimate, EstimatorContext
 from imimic_gym.kinematics import wrap_angle
 from imimic_gym.render import OffscreenRenderer
+from imimic_gym.robots.spec import RobotSpec
 
 __all__ = ["ImitateVideoEnv", "SimulationUnstableError", "imitate_env"]
 
@@ -57,7 +58,16 @@ class ImitateVideoEnv(gym.Env, EzPickle):
     `info["has_truth"]` is False, `reward_tracking` is 0, and `info` has no
     `target_angles` or `tracking_error_deg` (unknown: not zero, and not NaN, which would
     make equal episodes compare unequal). The robot is then built from the
-    clip's `meta` (`reference_direction`, `joint_ranges`). A `Clip` whose frames are a
+    clip's `meta` (`reference_direction`, `joint_ranges`). The same holds for each frame
+    of an annotated video that has no label (a frame the annotations leave out, or where
+    the pose model gave no reading): `has_truth` False and `label_filled` True for that
+    frame, no tracking reward, and no part of the metrics (`rollout.Trajectory`); the
+    truth's angles there (`target_angles(i)`) are filled in between the labelled frames,
+    something to steer by, not to score against. A video annotated with a person's arm
+    (COCO keypoints or ``"pose"``) gets a robot with a human arm's joint ranges
+    (`estimators.pose.human_joint_ranges`), as ``imimic mimic`` builds for a person; the
+    truth JSON that ``imimic clip`` writes beside its mp4 gives the rendered clip's own
+    robot and truth. A `Clip` whose frames are a
     `FrameStream` (`clips.video.stream_video`) is read forward only: one episode, no
     second reset, and `StreamEndedError` from `step` if the source ends early.
 
@@ -84,9 +94,11 @@ class ImitateVideoEnv(gym.Env, EzPickle):
     - `reward_ctrl = -ctrl_cost_weight * sum_i a_i^2`.
     `info` also holds `tracking_error_deg` (RMS over joints of the wrapped error, degrees),
     `frame_index`, `target_angles` (rad), `occlusion` (fraction of the moving links
-    hidden), `clip_seed`, `has_truth` (False: no ground truth, tracking reward 0) and,
-    with truth, `truth_source`: `"render"` (exact), `"annotations"` (a COCO file) or
-    `"pose"` (the pose model's pseudo-truth, `annotations="pose"`).
+    hidden), `clip_seed`, `has_truth` (False: no ground truth for this frame, tracking
+    reward 0) and, for a clip with truth, `truth_source`: `"render"` (exact, also from
+    `imimic clip`'s truth JSON), `"annotations"` (a COCO file) or `"pose"` (the pose
+    model's pseudo-truth, `annotations="pose"`), and `label_filled` (True: this frame has
+    no label; its truth is filled in and not scored).
 
     ## Starting State
     The robot starts at the demonstrator's first-frame angles plus uniform noise of
@@ -105,7 +117,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
     |---|---|---|
     | `scenario` | `"default"` | scenario name (`imimic_gym.scenario_names()`) or a `Clip` |
     | `clip` | `None` | a video file path or a `Clip`; overrides `scenario` |
-    | `annotations` | `None` | COCO JSON of the video `clip`, or `"pose"` (pseudo-truth) |
+    | `annotations` | `None` | COCO JSON of the video `clip`, `"pose"`, or `imimic clip`'s JSON |
     | `n_links` | `None` | 1-3 moving links; `None` takes the scenario's |
     | `control` | `"position"` | `"position"`, `"velocity"` or `"torque"` actuation |
     | `modality` | `"rgb"` | `"rgb"` or `"depth"` frames in the observation |
@@ -154,6 +166,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
                         n_frames=n_frames, n_links=n_links, tracking_weight=tracking_weight,
                         ctrl_cost_weight=ctrl_cost_weight,
                         reset_noise_scale=reset_noise_scale)
+        check_sources(clip, annotations, clip_seeds)
         n_links = None if n_links is None else int(n_links)
         self.control, self.modality, self.render_mode = control, modality, render_mode
         self.render_height = render_height
@@ -184,7 +197,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
                                  f"from {scenario.meta.get('path')}: leave them None")
             self._fixed_clip = scenario.resized(height, width)
             self.clip_seeds: tuple[int, ...] = (int(scenario.meta.get("seed", 0)),)
-            arm = robot_for_clip(scenario, control)
+            arm = self._robot_for_clip(scenario, control)
         else:
             overrides = {k: v for k, v in (("n_links", n_links), ("width", width),
                          ("height", height), ("n_frames", n_frames)) if v is not None}
@@ -192,8 +205,8 @@ class ImitateVideoEnv(gym.Env, EzPickle):
             self.clip_seeds = tuple(int(s) for s in clip_seeds)
             if not self.clip_seeds:
                 raise ValueError("clip_seeds must name at least one seed, got an empty sequence")
-            arm = self._spec.robot_arm(control)
-        self.arm: ArmSpec = arm
+            arm = self._robot_for_spec(self._spec, control)
+        self.arm: RobotSpec = arm
         self.clip = self._load(self.clip_seeds[0])
         fps = self.clip.fps
         if len(self.clip) < 2:
@@ -206,7 +219,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
                              f"frame and takes {MIN_FPS:g} to {MAX_FPS:g} (give the video's "
                              "real rate: stream_video/load_video(fps=...), --fps)")
 
-        self.model = build_arm_model(arm)
+        self.model = arm.build_model()
         self.n_substeps = max(1, math.ceil(1.0 / fps / MAX_PHYSICS_STEP))
         self.model.opt.timestep = 1.0 / fps / self.n_substeps
         self.data = mujoco.MjData(self.model)
@@ -216,7 +229,8 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         self._joint_high = self.model.jnt_range[:, 1].copy()
         self.metadata = {**self.metadata, "render_fps": fps}
 
-        n = arm.n_links
+        n = arm.n_joints
+        self._targets = self._clip_targets(self.clip)
         h, w = self.clip.height, self.clip.width
         self.action_space = spaces.Box(-1.0, 1.0, shape=(n,), dtype=np.float32)
         self.observation_space = spaces.Dict({
@@ -230,6 +244,20 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         self._last_frame = len(self.clip) - 1
         self._frames = self._observed_frames(self.clip)
         self._renderer: OffscreenRenderer | None = None
+
+    # The robot and its targets: what ImitateVideo3D-v0 replaces -----------------------
+    def _robot_for_clip(self, clip: Clip, control: Control) -> RobotSpec:
+        """The robot for a given clip (a recorded video): `robot_for_clip`."""
+        return robot_for_clip(clip, control)
+
+    def _robot_for_spec(self, spec: ClipSpec, control: Control) -> RobotSpec:
+        """The robot for a scenario's clips: the demonstrator's arm (`ClipSpec.robot_arm`)."""
+        return spec.robot_arm(control)
+
+    def _clip_targets(self, clip: Clip) -> np.ndarray | None:
+        """(T, n) rad: the joint angles the robot should have in each frame of ``clip``
+        (here the truth's own), None without truth."""
+        return clip.truth.angles if clip.truth is not None else None
 
     # Clips ---------------------------------------------------------------------------
     def _load(self, seed: int) -> Clip:
@@ -267,12 +295,13 @@ class ImitateVideoEnv(gym.Env, EzPickle):
 
     def target_angles(self, frame_index: int) -> np.ndarray:
         """The demonstrator's true joint angles (rad) at ``frame_index`` (clamped to the
-        clip). Raises ValueError for a clip without truth."""
-        if self.clip.truth is None:
+        clip); on a frame without a label, filled in between the labelled ones. Raises
+        ValueError for a clip without truth."""
+        if self._targets is None:
             raise ValueError(f"clip {self.clip.meta.get('path', self.clip.meta)} has no ground "
                              "truth: no target angles (load it with annotations)")
         i = min(max(frame_index, 0), len(self.clip) - 1)
-        return self.clip.truth.angles[i].copy()
+        return self._targets[i].copy()
 
     def estimator_context(self) -> EstimatorContext:
         """What an estimator may know about the current clip and this robot: the seam
@@ -282,8 +311,8 @@ class ImitateVideoEnv(gym.Env, EzPickle):
             fps=float(self.clip.fps),
             link_parents=tuple(self.arm.link_parents),
             joint_ranges=tuple((float(lo), float(hi)) for lo, hi in self.arm.joint_ranges),
-            reference_direction=float(self.clip.meta.get("reference_direction",
-                                                         self.arm.reference_direction)),
+            reference_direction=float(self.clip.meta.get(
+                "reference_direction", cast(ArmSpec, self.arm).reference_direction)),
             modality=self.modality,
             demonstrator=str(self.clip.meta.get("demonstrator", "human")),
             robot=self.model,
@@ -307,11 +336,12 @@ class ImitateVideoEnv(gym.Env, EzPickle):
 
     def _tracking(self) -> tuple[np.ndarray, np.ndarray] | None:
         """The demonstrator's angles in the current frame and the robot's wrapped error;
-        None without truth."""
+        None without truth for this frame."""
         assert self.frame_index is not None
-        if self.clip.truth is None:
+        if self._targets is None or not (self.clip.truth is None
+                                         or self.clip.truth.has_label(self.frame_index)):
             return None
-        target = self.clip.truth.angles[self.frame_index]
+        target = self._targets[self.frame_index]
         return target, wrap_angle(self.data.qpos - target)
 
     def _info(self, tracking: tuple[np.ndarray, np.ndarray] | None) -> dict[str, Any]:
@@ -320,10 +350,11 @@ class ImitateVideoEnv(gym.Env, EzPickle):
             "frame_index": self.frame_index,
             "occlusion": float(truth.occlusion[self.frame_index]) if truth is not None else 0.0,
             "clip_seed": int(self.clip.meta.get("seed", 0)),
-            "has_truth": truth is not None,
+            "has_truth": tracking is not None,
         }
         if truth is not None:  # "render", or "annotations"/"pose" for recorded video
             info["truth_source"] = self.clip.meta.get("truth_source", "render")
+            info["label_filled"] = tracking is None
         if tracking is not None:
             target, error = tracking
             info["tracking_error_deg"] = math.degrees(math.sqrt(float(error @ error) / error.size))
@@ -343,9 +374,9 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         clip = self._load(clip_seed)
         if clip is not self.clip:
             self.clip, self._frames = clip, self._observed_frames(clip)
+            self._targets = self._clip_targets(clip)
         mujoco.mj_resetData(self.model, self.data)
-        truth = self.clip.truth
-        start = truth.angles[0] if truth is not None else np.mean(
+        start = self._targets[0] if self._targets is not None else np.mean(
             [self._joint_low, self._joint_high], axis=0)
         scale = self.reset_noise_scale
         noise = self.np_random.uniform(-scale, scale, size=start.shape)
@@ -388,13 +419,18 @@ class ImitateVideoEnv(gym.Env, EzPickle):
 
         tracking = self._tracking()
         info = self._info(tracking)
-        reward_tracking = 0.0
-        if tracking is not None:
-            reward_tracking = -self.tracking_weight * float(tracking[1] @ tracking[1])
+        reward_tracking = self._tracking_reward(tracking, info)
         reward_ctrl = -self.ctrl_cost_weight * float(a @ a)
         info["reward_tracking"], info["reward_ctrl"] = reward_tracking, reward_ctrl
         truncated = self.frame_index == self._last_frame
         return self._obs(), reward_tracking + reward_ctrl, False, truncated, info
+
+    def _tracking_reward(self, tracking: tuple[np.ndarray, np.ndarray] | None,
+                         info: dict[str, Any]) -> float:
+        """``-tracking_weight * sum_i wrap(q_i - q*_i)^2``; 0 without truth."""
+        if tracking is None:
+            return 0.0
+        return -self.tracking_weight * float(tracking[1] @ tracking[1])
 
     def render(self) -> np.ndarray | None:
         """(H, 2W, 3) uint8: the video frame (left) beside the robot (right), same size;

@@ -3,14 +3,16 @@ MediaPipe.
 
 `PoseModel` runs MediaPipe Pose (BlazePose GHUM, the "full" landmark model and the person
 detector, both inside the ``mediapipe==0.10.14`` wheel: nothing is downloaded) on the
-CPU and returns one person's body keypoints in input pixels with a confidence each
-(`BodyKeypoints`), or None where it sees nobody. Why this model and this version, and
+CPU and returns one person's body keypoints in input pixels with a confidence each, the
+model's relative depth of each and its 3-D "world" landmarks (`BodyKeypoints`), or None
+where it sees nobody. Why this model and this version, and
 how it is installed beside our numpy and OpenCV: `docs/decisions/pose-model.md`.
 """
 
 from __future__ import annotations
 
 import math
+import sys
 import warnings
 from dataclasses import dataclass
 from typing import Any
@@ -42,17 +44,34 @@ class BodyKeypoints:
     Attributes:
         points: (K, 2) float64 input pixels (x, y), K = len(KEYPOINTS), in that order.
         confidence: (K,) float64 in [0, 1]: the model's visibility of each keypoint.
+        depth: (K,) float64, the model's relative depth of each keypoint (MediaPipe's
+            ``landmark.z``): 0 at the hips' midpoint, smaller = nearer the camera, in
+            image widths (roughly the scale of the normalised x, so ``depth * W`` is
+            pixels for a W-pixel-wide frame); None where not read (hand-built keypoints).
+        world: (K, 3) float64 metres, the model's own 3-D estimate (MediaPipe's
+            ``pose_world_landmarks``): origin at the hips' midpoint, x towards the image's
+            right, y down, z away from the camera (axes as the image's; rotation about
+            the hips is the model's guess); None where not read.
     """
 
     points: np.ndarray
     confidence: np.ndarray
+    depth: np.ndarray | None = None
+    world: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         k = len(KEYPOINTS)
         if self.points.shape != (k, 2) or self.confidence.shape != (k,):
             raise ValueError(f"BodyKeypoints needs points ({k}, 2) and confidence ({k},), "
                              f"got {self.points.shape} and {self.confidence.shape}")
-        if not (np.isfinite(self.points).all() and np.isfinite(self.confidence).all()):
+        for name, shape in (("depth", (k,)), ("world", (k, 3))):
+            value = getattr(self, name)
+            if value is not None and np.shape(value) != shape:
+                raise ValueError(f"BodyKeypoints.{name} must have shape {shape}, got "
+                                 f"{np.shape(value)}")
+        arrays = [a for a in (self.points, self.confidence, self.depth, self.world)
+                  if a is not None]
+        if not all(np.isfinite(a).all() for a in arrays):
             raise ValueError("BodyKeypoints must be finite")
 
     def get(self, name: str) -> tuple[np.ndarray, float]:
@@ -76,8 +95,10 @@ def _solution() -> Any:
     try:
         from mediapipe.python.solutions import pose
     except ImportError as error:
+        running = f"{sys.version_info.major}.{sys.version_info.minor}"
         raise PoseModelMissingError(
-            "the pose estimator needs MediaPipe: pip install 'imimic_gym[pose]' then "
+            f"the pose estimator needs MediaPipe {MEDIAPIPE_VERSION}, which has wheels for "
+            f"Python 3.9-3.12 only (this is {running}): pip install 'imimic_gym[pose]' then "
             f"pip install --no-deps mediapipe=={MEDIAPIPE_VERSION} (make setup does both); "
             f"{error}") from error
     return pose
@@ -177,6 +198,15 @@ class PoseModel:
         marks = result.pose_landmarks.landmark
         points = np.array([(marks[i].x * w, marks[i].y * h) for i in _BLAZEPOSE])
         confidence = np.array([marks[i].visibility for i in _BLAZEPOSE])
-        if not (np.isfinite(points).all() and np.isfinite(confidence).all()):
+        depth = np.array([marks[i].z for i in _BLAZEPOSE])
+        world = None
+        if result.pose_world_landmarks is not None:
+            world_marks = result.pose_world_landmarks.landmark
+            world = np.array([(world_marks[i].x, world_marks[i].y, world_marks[i].z)
+                              for i in _BLAZEPOSE])
+            if not np.isfinite(world).all():
+                world = None
+        if not all(np.isfinite(a).all() for a in (points, confidence, depth)):
             return None
-        return BodyKeypoints(points=points, confidence=np.clip(confidence, 0.0, 1.0))
+        return BodyKeypoints(points=points, confidence=np.clip(confidence, 0.0, 1.0),
+                             depth=depth, world=world)

@@ -1,5 +1,10 @@
 """The estimator registry: every vision estimator, by name, in one place.
 
+Planar estimators (joint angles, `Estimator`) and spatial ones (the arm in 3-D,
+`SpatialEstimator`, entries with ``spatial=True``) share it; each follows only clips of
+its own kind (`EstimatorEntry.unsupported`): `build_estimator` builds the former,
+`build_spatial_estimator` the latter.
+
 An entry knows how to build its estimator from an `EstimatorContext` (what the env
 publishes: fps, links, joint ranges, reference direction, modality, robot model), which
 clips it can follow, which keyword parameters a user may pass it, and how many frames it
@@ -23,11 +28,16 @@ from imimic_gym.estimators.config import (
     linked_don_preset,
     override,
 )
-from imimic_gym.estimators.types import Estimate, Estimator, EstimatorContext
+from imimic_gym.estimators.types import (
+    Estimate,
+    Estimator,
+    EstimatorContext,
+    SpatialEstimator,
+)
 
 __all__ = [
-    "ESTIMATORS", "EstimatorEntry", "UnsupportedClipError", "build_estimator", "get_estimator",
-    "register", "unregister",
+    "ESTIMATORS", "EstimatorEntry", "UnsupportedClipError", "build_estimator",
+    "build_spatial_estimator", "get_estimator", "register", "unregister",
 ]
 
 
@@ -47,7 +57,8 @@ class EstimatorEntry:
     Attributes:
         name: the registry key (``--estimator NAME``).
         summary: one line for ``--help`` and the demo's introduction.
-        build: ``build(context, **params) -> Estimator``.
+        build: ``build(context, **params) -> Estimator`` (``-> SpatialEstimator`` for a
+            spatial one).
         links: the numbers of moving links it follows.
         demonstrators: the demonstrators it can read (None: any).
         params: keyword parameters a user may pass to ``build``.
@@ -58,11 +69,14 @@ class EstimatorEntry:
             human arm's joint ranges (`pose.human_joint_ranges`) unless told otherwise.
         photos: reads each frame alone, so it can score single photos (`imimic eval
             --photos`); the frame-differencing estimators need a video.
+        spatial: reads the arm in 3-D (an `ArmPose` per frame) and follows only spatial
+            clips (`EstimatorContext.spatial`); ``links`` does not apply to it. The oracle
+            (``needs_truth``) reads whatever truth the env gives, on either kind.
     """
 
     name: str
     summary: str
-    build: Callable[..., Estimator]
+    build: Callable[..., Any]
     links: tuple[int, ...] = (1,)
     demonstrators: tuple[str, ...] | None = None
     params: tuple[str, ...] = ()
@@ -70,6 +84,7 @@ class EstimatorEntry:
     needs_truth: bool = False
     real_people: bool = False
     photos: bool = False
+    spatial: bool = False
 
     @property
     def links_text(self) -> str:
@@ -78,7 +93,13 @@ class EstimatorEntry:
 
     def unsupported(self, context: EstimatorContext) -> str | None:
         """Why this estimator cannot follow a clip of ``context``, or None if it can."""
-        if context.n_links not in self.links:
+        if self.spatial and not context.spatial:
+            return (f"estimator {self.name!r} reads the arm in 3-D; this clip is planar "
+                    f"({_numbers((context.n_links,))})")
+        if context.spatial and not self.spatial and not self.needs_truth:
+            return (f"estimator {self.name!r} gives planar joint angles; this clip's arm "
+                    f"moves in 3-D")
+        if not (self.spatial or context.spatial) and context.n_links not in self.links:
             return (f"estimator {self.name!r} follows {self.links_text}; "
                     f"this clip has {context.n_links}")
         if self.demonstrators is not None and context.demonstrator not in self.demonstrators:
@@ -91,7 +112,8 @@ class EstimatorEntry:
 
 
 def _numbers(links: tuple[int, ...]) -> str:
-    """(1,) -> "one moving link"; (1, 2, 3) -> "1 to 3 moving links"."""
+    """(1,) -> "one moving link"; (2,) -> "2 moving links"; (1, 2, 3) -> "1 to 3 moving
+    links"."""
     if links == (1,):
         return "one moving link"
     if len(links) > 2 and links == tuple(range(links[0], links[-1] + 1)):
@@ -125,12 +147,31 @@ def get_estimator(name: str) -> EstimatorEntry:
 
 
 def build_estimator(name: str, context: EstimatorContext, **params: Any) -> Estimator:
-    """The estimator ``name`` set up for ``context``. Raises `UnsupportedClipError` for a
-    clip it cannot follow and ValueError for a parameter it does not take."""
+    """The planar estimator ``name`` set up for ``context``. Raises `UnsupportedClipError`
+    for a clip it cannot follow (a spatial estimator follows no planar clip) and
+    ValueError for a parameter it does not take."""
+    estimator: Estimator = _build(name, context, params, spatial=False)
+    return estimator
+
+
+def build_spatial_estimator(name: str, context: EstimatorContext, **params: Any
+                            ) -> SpatialEstimator:
+    """The spatial estimator ``name`` set up for ``context`` (a spatial one); errors as
+    `build_estimator`'s."""
+    estimator: SpatialEstimator = _build(name, context, params, spatial=True)
+    return estimator
+
+
+def _build(name: str, context: EstimatorContext, params: dict[str, Any], spatial: bool
+           ) -> Any:
     entry = get_estimator(name)
     why = entry.unsupported(context)
     if why is not None:
         raise UnsupportedClipError(why)
+    if entry.spatial != spatial:
+        wanted = "build_spatial_estimator" if entry.spatial else "build_estimator"
+        raise ValueError(f"estimator {name!r} is {'spatial' if entry.spatial else 'planar'}: "
+                         f"build it with {wanted}")
     unknown = sorted(set(params) - set(entry.params))
     if unknown:
         takes = ", ".join(entry.params) if entry.params else "no parameters"
@@ -218,6 +259,19 @@ def _pose_don(context: EstimatorContext, **params: Any) -> Estimator:
                          robot=context.robot, **params)
 
 
+_POSE3D_PARAMS = ("arm", "min_confidence")
+
+
+def _pose3d(source: str) -> Callable[..., SpatialEstimator]:
+    def build(context: EstimatorContext, **params: Any) -> SpatialEstimator:
+        from imimic_gym.estimators.pose3d import Pose3DEstimator
+
+        return Pose3DEstimator(fps=context.fps, intrinsics=context.intrinsics,
+                               source=params.pop("source", source), **params)
+
+    return build
+
+
 class TruthReader:
     """The oracle "estimator": the true angles, omega and alpha of the frame the env
     shows (from `EstimatorContext.truth`), trust 1, torque 0. Evaluation only: never
@@ -261,5 +315,15 @@ for _entry in (
                    params=("arm", "min_confidence", "pose_every", "window"), real_people=True),
     EstimatorEntry("oracle", "oracle (the true angles)", _oracle, links=(1, 2, 3),
                    needs_truth=True),
+    EstimatorEntry("pose3d", "the pose model's 2-D keypoints lifted to 3-D by bone lengths "
+                   "(source='depth': back-projected through a depth image)", _pose3d("lift"),
+                   demonstrators=("human",), params=(*_POSE3D_PARAMS, "source"),
+                   real_people=True, spatial=True),
+    EstimatorEntry("pose3d-depth", "the pose model's keypoints back-projected through the "
+                   "depth image (an RGB-D camera)", _pose3d("depth"), demonstrators=("human",),
+                   params=_POSE3D_PARAMS, real_people=True, spatial=True),
+    EstimatorEntry("pose-world", "the pose model's own 3-D world landmarks (the baseline)",
+                   _pose3d("world"), demonstrators=("human",), params=_POSE3D_PARAMS,
+                   real_people=True, spatial=True),
 ):
     register(_entry)

@@ -1,17 +1,23 @@
 """What every vision estimator produces (`Estimate`, laid out as a vector by
-`estimate_fields`), what it is (`Estimator`), and what it may know about the clip and the
-robot (`EstimatorContext`, published by the env)."""
+`estimate_fields`), what it is (`Estimator`; `SpatialEstimator` for those that read the
+arm in 3-D), and what it may know about the clip and the robot (`EstimatorContext`,
+published by the env)."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
-__all__ = ["ESTIMATE_BOUNDS", "Estimate", "Estimator", "EstimatorContext", "estimate_fields"]
+if TYPE_CHECKING:
+    from imimic_gym.spatial.arm_pose import ArmPose
+    from imimic_gym.spatial.camera import Intrinsics
+
+__all__ = ["ESTIMATE_BOUNDS", "Estimate", "Estimator", "EstimatorContext", "SpatialEstimator",
+           "estimate_fields"]
 
 # Bounds of the estimate vector, so an observation space is finite (checkers warn on
 # infinite ones) and a wild estimate cannot leave it: angles rad, omega rad/s, alpha
@@ -84,6 +90,18 @@ class Estimator(Protocol):
         """Take the next (H, W, 3) uint8 RGB frame and return the estimate for it."""
 
 
+class SpatialEstimator(Protocol):
+    """Turns a stream of frames (and, from an RGB-D camera, depth images) into the arm in
+    3-D. Knows nothing about environments."""
+
+    def reset(self) -> None:
+        """Forget all frames: the next ``update`` starts a new clip."""
+
+    def update(self, frame: np.ndarray, depth: np.ndarray | None = None) -> ArmPose:
+        """Take the next (H, W, 3) uint8 RGB frame (and its (H, W) float32 depth in
+        metres, or None) and return the arm's `ArmPose` for it (camera frame)."""
+
+
 @dataclass(frozen=True)
 class EstimatorContext:
     """What an estimator may know about a clip and the robot copying it: the seam between
@@ -101,6 +119,10 @@ class EstimatorContext:
         robot: the robot's ``mujoco.MjModel``, for torques; None gives zero torque.
         truth: a no-argument callable giving the true `Estimate` of the frame the env
             shows now (the oracle's only input; evaluation only), or None without truth.
+        spatial: the clip's arm moves in space and its reader wants an `ArmPose` per
+            frame (`SpatialEstimator`); False: planar joint angles (`Estimator`).
+        intrinsics: the camera's `spatial.camera.Intrinsics` at the frames' size, or None
+            where unknown (3-D estimators then guess a typical camera's).
     """
 
     fps: float
@@ -111,6 +133,8 @@ class EstimatorContext:
     demonstrator: str = "human"
     robot: Any = None
     truth: Callable[[], Estimate] | None = None
+    spatial: bool = False
+    intrinsics: Intrinsics | None = None
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.fps) and self.fps > 0):

@@ -14,7 +14,11 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from imimic_gym.estimators.registry import build_estimator
+from imimic_gym.estimators.registry import (
+    build_estimator,
+    build_spatial_estimator,
+    get_estimator,
+)
 from imimic_gym.estimators.types import (
     ESTIMATE_BOUNDS,
     Estimate,
@@ -144,16 +148,28 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
 class RegistryObservation(EstimatorObservation):
     """`EstimatorObservation` with the registered estimator ``name``
     (`estimators.registry`), built from the env's `EstimatorContext` with ``params``.
-    Raises `UnsupportedClipError` for a clip it cannot follow. The name and parameters,
-    not the estimator, are what ``gym.make(env.spec)`` and a vector env's sub-processes
-    rebuild it from."""
+    A spatial estimator (on ``ImitateVideo3D-v0``) is read through the env's retargeter
+    (`wrappers.spatial.RetargetedEstimator`): the estimate holds the robot's joint
+    targets. Raises `UnsupportedClipError` for a clip it cannot follow. The name and
+    parameters, not the estimator, are what ``gym.make(env.spec)`` and a vector env's
+    sub-processes rebuild it from."""
 
     def __init__(self, env: gym.Env, name: str, keep_frame: bool = True,
                  **params: Any) -> None:
         gym.utils.RecordConstructorArgs.__init__(self, name=name, keep_frame=keep_frame,
                                                  **params)
-        super().__init__(env, build_estimator(name, estimator_context(env), **params),
-                         keep_frame=keep_frame)
+        context = estimator_context(env)
+        estimator: Estimator
+        if get_estimator(name).spatial:
+            from imimic_gym.wrappers.spatial import RetargetedEstimator
+
+            low, high = np.array(context.joint_ranges).T
+            estimator = RetargetedEstimator(
+                build_spatial_estimator(name, context, **params),
+                env.get_wrapper_attr("retarget"), context.fps, start=(low + high) / 2)
+        else:
+            estimator = build_estimator(name, context, **params)
+        super().__init__(env, estimator, keep_frame=keep_frame)
 
 
 class DONObservation(EstimatorObservation):

@@ -4,6 +4,7 @@ angles and hold logic on hand-built keypoint tracks."""
 import copy
 import math
 import pickle
+import sys
 
 import numpy as np
 import pytest
@@ -11,7 +12,12 @@ import pytest
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
 from imimic_gym.estimators.pose import ELBOW_RANGE, ArmChooser, PoseEstimator
-from imimic_gym.estimators.pose_model import KEYPOINTS, BodyKeypoints, PoseModel
+from imimic_gym.estimators.pose_model import (
+    KEYPOINTS,
+    BodyKeypoints,
+    PoseModel,
+    PoseModelMissingError,
+)
 from imimic_gym.kinematics import keypoints_to_angles
 from imimic_gym.metrics import angle_rmse_deg
 
@@ -50,6 +56,19 @@ def test_a_frame_without_a_person_is_a_clean_none() -> None:
     assert model(np.full((240, 320, 3), 200, np.uint8)) is None
     with pytest.raises(ValueError, match=r"PoseModel takes \(H, W, 3\) uint8 RGB frames"):
         model(np.zeros((0, 10, 3), np.uint8))
+
+
+def test_without_mediapipe_the_error_says_how_to_install_it_and_on_which_python(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    for name in [name for name in sys.modules if name.split(".")[0] == "mediapipe"]:
+        monkeypatch.setitem(sys.modules, name, None)  # None in sys.modules: import fails
+    monkeypatch.setitem(sys.modules, "mediapipe", None)
+    running = f"{sys.version_info.major}.{sys.version_info.minor}"
+    with pytest.raises(PoseModelMissingError,
+                       match=rf"wheels for Python 3\.9-3\.12 only \(this is {running}\): "
+                             r"pip install 'imimic_gym\[pose\]' then pip install --no-deps "
+                             r"mediapipe==0\.10\.14"):
+        PoseModel()
 
 
 def test_frame_times_reach_the_models_filters_and_must_increase(person_clip) -> None:

@@ -117,6 +117,11 @@ def test_a_missing_annotations_file_is_one_line(tmp_path: Path) -> None:
     (["--test-annotations", "nope.json"], "nope.json"),
     (["--init", "nope.pt"], "checkpoint nope.pt not found"),
     (["--images", "nowhere", "--limit", "2"], "nowhere/arm1/train/"),
+    # Outputs, before the training rather than after it (/proc refuses even root's writes).
+    (["--out", "/proc/cnn.pt", "--limit", "2", "--cnn-epochs", "1", "--epochs", "0"],
+     "train_cnn.py: --out /proc/cnn.pt: /proc is not writable"),
+    (["--json", "/proc/pcp.json", "--limit", "2", "--cnn-epochs", "1", "--epochs", "0"],
+     "train_cnn.py: --json /proc/pcp.json: /proc is not writable"),
 ])
 def test_a_bad_input_is_one_line_before_a_run_folder_exists(tmp_path: Path, flags: list[str],
                                                             message: str) -> None:

@@ -229,3 +229,19 @@ def test_help_gives_every_option_its_default_and_units() -> None:
     assert "(default: 128 128)" in helps["--net-arch"] and "units" in helps["--net-arch"]
     assert "150 frames, 5 s" in helps["--frames"]
     assert "{sac,ppo}" in helps["--algorithm"] and "(default: sac)" in helps["--algorithm"]
+
+
+def test_a_search_on_ray_without_ray_is_one_line(tmp_path) -> None:
+    """Ray not installed (its import fails, as where the ray extra is missing): the
+    search says what to install, exit 2, before any trial runs."""
+    without_ray = ("import runpy, sys; sys.modules['ray'] = None; "
+                   f"sys.argv = [{str(SCRIPT)!r}, *sys.argv[1:]]; "
+                   f"runpy.run_path({str(SCRIPT)!r}, run_name='__main__')")
+    result = subprocess.run([sys.executable, "-c", without_ray, *TINY, "--search", "seed=0,1",
+                             "--backend", "ray", "--logdir", str(tmp_path / "runs"),
+                             "--out", str(tmp_path / "best.pt")],
+                            capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert result.returncode == 2 and "Traceback" not in result.stderr, result.stderr[-3000:]
+    assert result.stderr.strip().splitlines()[-1].startswith(
+        "train_tracker.py: the ray backend needs Ray: pip install")
+    assert not list((tmp_path / "runs").glob("*/trial_*/tracker.pt"))

@@ -1,0 +1,67 @@
+"""The 3-D path's estimator stage: a spatial estimator (an `ArmPose` a frame) read through
+the env's retargeter, so that ``obs["estimate"]`` holds the robot's joint targets and every
+controller (`controllers`) drives a spatial robot as it drives a planar one.
+
+Data flow: frame -> spatial estimator -> `ArmPose` -> retargeter -> joint targets (rad)
+-> `Estimate` (omega, alpha by the shared path estimator) -> controller.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from imimic_gym.estimators.motion import PathEstimator
+from imimic_gym.estimators.types import Estimate, SpatialEstimator
+from imimic_gym.spatial.arm_pose import ArmPose
+
+__all__ = ["RetargetedEstimator"]
+
+Retarget = Callable[[ArmPose, "np.ndarray | None"], np.ndarray]
+
+
+class RetargetedEstimator:
+    """An `Estimator` of the robot's joint targets from a `SpatialEstimator`.
+
+    Each frame: the arm's `ArmPose` (``last_pose``), retargeted onto the robot
+    continuing the last targets; rates from the shared path estimator (paper layer 4a).
+    A frame where the arm is not seen (trust 0) holds the last targets at rest; before the
+    first reading the targets are ``start`` (the robot's rest pose) with trust 0.
+
+    Args:
+        spatial: the spatial estimator (`estimators.registry.build_spatial_estimator`).
+        retarget: ``retarget(pose, previous) -> (n,) rad`` (`retarget.DirectionRetargeter`).
+        fps: frames/s, for the rates.
+        start: (n,) rad, the targets before the first reading.
+    """
+
+    def __init__(self, spatial: SpatialEstimator, retarget: Retarget, fps: float,
+                 start: np.ndarray) -> None:
+        self.spatial, self.retarget = spatial, retarget
+        self.start = np.asarray(start, dtype=np.float64).copy()
+        self.path = PathEstimator(len(self.start), fps)
+        self.reset()
+
+    def reset(self) -> None:
+        self.spatial.reset()
+        self.path.reset()
+        self.targets: np.ndarray | None = None
+        self.last_pose: ArmPose | None = None
+
+    def update(self, frame: np.ndarray, depth: np.ndarray | None = None) -> Estimate:
+        """The joint targets for the next (H, W, 3) uint8 RGB ``frame`` (``depth``: its
+        (H, W) float32 metres, for an estimator that reads depth)."""
+        pose = self.spatial.update(frame, depth)
+        self.last_pose = pose
+        zeros = np.zeros(len(self.start))
+        keypoints = pose.pixels[:4]  # shoulder, elbow, wrist, hand: drawn as a chain
+        if pose.trust == 0.0:
+            self.path.reset()  # a person who comes back is no velocity spike
+            held = self.start if self.targets is None else self.targets
+            return Estimate(angles=held, omega=zeros, alpha=zeros, torque=zeros, trust=0.0,
+                            keypoints=keypoints)
+        self.targets = self.retarget(pose, self.targets)
+        self.path.update(self.targets)
+        return Estimate(angles=self.targets, omega=self.path.omega(), alpha=self.path.alpha(),
+                        torque=zeros, trust=pose.trust, keypoints=keypoints)

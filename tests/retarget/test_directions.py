@@ -1,0 +1,224 @@
+"""Direction retargeting: round trips through the robot's forward kinematics, the nearest
+reachable direction, joint limits for any input, continuity along paths, mirrored arms."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from imimic_gym.retarget import DirectionRetargeter, robot_arm_directions
+from imimic_gym.robots import SO101Spec
+from imimic_gym.spatial import ArmPose, angle_between
+from tests.retarget.arms import arm_pose, direction, human_arm, rotate_about
+
+SPEC = SO101Spec()
+RETARGET = DirectionRetargeter(SPEC)
+EXACT_DEG = 0.01  # round-trip tolerance where the robot can reach, degrees
+# The upper arm's elevation in the arm's plane at shoulder_lift 0 (the model's 0.028 m
+# forward, 0.11257 m up from the lift axis to the elbow axis).
+UPPER_AT_ZERO = math.atan2(0.11257, 0.028)
+PAN_LIMIT = SPEC.joint_ranges[0][1]
+LIFT_LIMIT = SPEC.joint_ranges[1][1]
+
+
+def degrees_between(a: np.ndarray, b: np.ndarray) -> float:
+    return math.degrees(float(angle_between(a, b)))
+
+
+def reachable(upper: np.ndarray, margin: float = math.radians(0.5)) -> bool:
+    """Whether some pan and lift in range point the upper arm along ``upper`` (arm frame
+    = robot frame under the mirror mapping), with ``margin`` rad to spare."""
+    elevation = math.asin(float(np.clip(upper[2], -1, 1)))
+    pan = -math.atan2(upper[1], upper[0])
+    front = abs(pan) <= PAN_LIMIT - margin and \
+        elevation >= UPPER_AT_ZERO - LIFT_LIMIT + margin
+    back_pan = math.pi - abs(pan)
+    back = back_pan <= PAN_LIMIT - margin and \
+        math.pi - elevation <= UPPER_AT_ZERO + LIFT_LIMIT - margin
+    return front or back
+
+
+def test_every_robot_reachable_arm_comes_back_exactly():
+    rng = np.random.default_rng(1)
+    for _ in range(300):
+        q = rng.uniform(SPEC.lower, SPEC.upper)
+        upper, fore = robot_arm_directions(SPEC, q)
+        target = RETARGET(arm_pose(upper, fore), None)
+        got_upper, got_fore = robot_arm_directions(SPEC, target)
+        assert degrees_between(got_upper, upper) < EXACT_DEG
+        assert degrees_between(got_fore, fore) < EXACT_DEG
+
+
+def test_human_arms_upper_arm_and_flexion_come_back_where_reachable():
+    rng = np.random.default_rng(2)
+    checked = 0
+    for _ in range(400):
+        upper, fore, flexion = human_arm(rng)
+        target = RETARGET(arm_pose(upper, fore), None)
+        got_upper, got_fore = robot_arm_directions(SPEC, target)
+        # Every human flexion (0-150 deg) is within the robot's elbow (up to 170 deg).
+        assert abs(degrees_between(got_upper, got_fore) - math.degrees(flexion)) < EXACT_DEG
+        if reachable(upper):
+            checked += 1
+            assert degrees_between(got_upper, upper) < EXACT_DEG
+    assert checked > 150  # the draw covers reachable arms, not only hanging ones
+
+
+def nearest_reachable_error(upper: np.ndarray) -> float:
+    """Degrees from ``upper`` to the nearest robot upper arm on a 0.5-degree grid of pan
+    and lift (at least the true nearest's)."""
+    pans = np.radians(np.arange(-110, 110.01, 0.5))[:, None]
+    elevations = UPPER_AT_ZERO - np.radians(np.arange(-100, 100.01, 0.5))[None, :]
+    directions = np.stack(np.broadcast_arrays(np.cos(elevations) * np.cos(pans),
+                                              -np.cos(elevations) * np.sin(pans),
+                                              np.sin(elevations)), axis=-1)
+    return float(np.degrees(np.min(angle_between(directions, upper))))
+
+
+def test_an_unreachable_upper_arm_gets_the_nearest_reachable_direction():
+    rng = np.random.default_rng(3)
+    cases = [direction(-math.pi / 2, 0.0), direction(math.radians(-60), math.radians(30)),
+             direction(math.radians(-10), math.radians(150))]
+    while len(cases) < 40:
+        upper, _, _ = human_arm(rng)
+        if not reachable(upper, margin=0.0):
+            cases.append(upper)
+    for upper in cases:
+        got_upper, _ = robot_arm_directions(SPEC, RETARGET(arm_pose(upper, upper), None))
+        assert degrees_between(got_upper, upper) <= nearest_reachable_error(upper) + 0.01
+
+
+def test_a_hanging_arm_lowers_the_robots_upper_arm_to_its_limit_and_holds_the_pan():
+    hanging = direction(-math.pi / 2, 0.0)
+    start = np.radians([30.0, 40.0, 0.0, 0.0, 0.0, 0.0])
+    target = start
+    for _ in range(10):  # the lift moves at most max_step a frame
+        target = RETARGET(arm_pose(hanging, hanging), target)
+    assert target[1] == pytest.approx(LIFT_LIMIT)
+    assert target[0] == pytest.approx(start[0])
+
+
+def test_the_wrist_follows_the_hand_in_the_arms_plane():
+    rng = np.random.default_rng(4)
+    for _ in range(100):
+        q = rng.uniform(SPEC.lower, SPEC.upper)
+        q[4:] = 0.0
+        upper, fore = robot_arm_directions(SPEC, q)
+        # The robot's hand turns from its forearm by wrist_flex about the wrist's axis,
+        # the robot's y axis turned by the pan about -z.
+        wrist_axis = np.array([math.sin(q[0]), math.cos(q[0]), 0.0])
+        hand = rotate_about(fore, wrist_axis, q[3])
+        target = RETARGET(arm_pose(upper, fore, hand), None)
+        if abs(target[0] - q[0]) < 1e-9 and abs(target[2] - q[2]) < 1e-9:
+            assert math.degrees(abs(target[3] - q[3])) < EXACT_DEG
+
+
+def test_left_and_right_arms_mirrored_give_the_same_targets():
+    rng = np.random.default_rng(5)
+    for _ in range(50):
+        upper, fore, _ = human_arm(rng)
+        hand = rotate_about(fore, np.cross(upper, fore) + 1e-3, 0.3)
+        right = RETARGET(arm_pose(upper, fore, hand, "right"), None)
+        left = RETARGET(arm_pose(upper, fore, hand, "left"), None)
+        np.testing.assert_allclose(left, right, atol=1e-9)
+
+
+finite = st.floats(-3.0, 3.0, allow_nan=False, allow_infinity=False)
+
+
+@settings(max_examples=150, deadline=None)
+@given(points=arrays(np.float64, (7, 3), elements=finite),
+       previous=st.one_of(st.none(), arrays(np.float64, (6,), elements=st.floats(-4, 4))),
+       side=st.sampled_from(["left", "right"]))
+def test_targets_stay_inside_the_joint_ranges_for_any_input(points, previous, side):
+    pose = ArmPose(side, points, np.ones(7), np.zeros((7, 2)))
+    target = RETARGET(pose, previous)
+    assert target.shape == (6,) and np.isfinite(target).all()
+    assert (target >= SPEC.lower).all() and (target <= SPEC.upper).all()
+
+
+def follow(path: list[ArmPose]) -> np.ndarray:
+    """(T, 6) targets along ``path``, each frame given the last."""
+    targets, previous = [], None
+    for pose in path:
+        previous = RETARGET(pose, previous)
+        targets.append(previous)
+    return np.array(targets)
+
+
+def great_circle(start: np.ndarray, end: np.ndarray, step_deg: float) -> list[np.ndarray]:
+    total = math.degrees(float(angle_between(start, end)))
+    axis = np.cross(start, end)
+    return [rotate_about(start, axis, math.radians(a))
+            for a in np.arange(0.0, total + 1e-9, step_deg)]
+
+
+# A path step of 1 degree a frame (a brisk 30 degrees a second at 30 fps).
+STEP_DEG = 1.0
+MAX_STEP_DEG = math.degrees(RETARGET.max_step)
+
+
+@pytest.mark.parametrize(("miss_deg", "max_error_deg"), [(0.0, EXACT_DEG), (1.0, 5.0),
+                                                         (3.0, 30.0)])
+def test_no_flip_through_or_past_the_pole(miss_deg, max_error_deg):
+    # The upper arm swings up over the top, from forward to backward (its closest to the
+    # pole about 2.7 times miss_deg), the elbow bent 60 degrees in the swing's plane.
+    start = direction(math.radians(20), math.radians(miss_deg))
+    end = direction(math.radians(20), math.pi - math.radians(miss_deg))
+    normal = np.cross(start, end)
+    path = [arm_pose(upper, rotate_about(upper, normal, -math.radians(60)))
+            for upper in great_circle(start, end, STEP_DEG)]
+    targets = follow(path)
+    assert np.degrees(np.abs(np.diff(targets, axis=0))).max() <= MAX_STEP_DEG + 1e-9
+    errors = [degrees_between(robot_arm_directions(SPEC, q)[0], pose.in_arm_frame(
+        pose.upper_arm)) for q, pose in zip(targets, path, strict=True)]
+    # Through the pole the pan holds and nothing is lost; passing beside it the robot's
+    # pan must swing half a turn (to reach over the top) while the person's upper arm
+    # turns about the pole: it lags for a few frames, then is exact again.
+    assert max(errors) < max_error_deg
+    assert errors[-1] < 0.1
+
+
+def test_no_flip_along_the_limits():
+    # The upper arm sweeps sideways from forward to behind (past the pan limit) at the
+    # horizon, then drops to hanging (past the lift limit) and comes back up forward.
+    path_dirs = great_circle(direction(0.0, 0.0), direction(0.0, math.radians(170)), STEP_DEG)
+    path_dirs += great_circle(path_dirs[-1], direction(-math.pi / 2, 0.0), STEP_DEG)
+    path_dirs += great_circle(path_dirs[-1], direction(0.0, math.radians(-20)), STEP_DEG)
+    path = [arm_pose(u, rotate_about(u, np.cross(u, [0.0, 0.0, 1.0]) + 1e-6, -0.8))
+            for u in path_dirs]
+    targets = follow(path)
+    jumps = np.degrees(np.abs(np.diff(targets, axis=0)))
+    assert jumps.max() <= MAX_STEP_DEG + 1e-9
+    assert (targets >= SPEC.lower).all() and (targets <= SPEC.upper).all()
+
+
+def test_smooth_motion_in_front_moves_the_joints_smoothly_and_exactly():
+    # A smooth random wander of the upper arm in front of the person, above the robot's
+    # lowest reach and away from the pole, the elbow bending forward-down in the arm's
+    # plane: the joints move about as fast as the arm, never at the step limit, and the
+    # upper arm and forearm stay exact.
+    rng = np.random.default_rng(6)
+    elevation, azimuth, flexion = 0.5, 0.0, 1.0
+    path = []
+    for _ in range(300):
+        elevation = float(np.clip(elevation + rng.normal(0, 0.012), -0.3, 1.2))
+        azimuth = float(np.clip(azimuth + rng.normal(0, 0.012), -1.5, 1.5))
+        flexion = float(np.clip(flexion + rng.normal(0, 0.012), 0.2, 2.4))
+        upper = direction(elevation, azimuth)
+        normal = np.cross(upper, [0.0, 0.0, 1.0])
+        path.append(arm_pose(upper, rotate_about(upper, normal, -flexion)))
+    targets = follow(path)
+    assert np.degrees(np.abs(np.diff(targets, axis=0))).max() < 4.0
+    errors = [max(degrees_between(got, pose.in_arm_frame(wanted)) for got, wanted in zip(
+        robot_arm_directions(SPEC, q), (pose.upper_arm, pose.forearm), strict=True))
+        for q, pose in zip(targets, path, strict=True)]
+    assert max(errors) < 0.1
+
+
+def test_a_fixed_value_outside_its_range_is_refused():
+    with pytest.raises(ValueError, match="wrist_roll must be inside its joint range"):
+        DirectionRetargeter(SPEC, wrist_roll=3.0)

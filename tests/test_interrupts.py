@@ -1,0 +1,77 @@
+"""Ctrl-C as the commands see it: the forms it arrives in, and a Ctrl-C before the
+`imimic` command can catch anything."""
+
+import ctypes
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import imimic_gym
+from imimic_gym.interrupts import CTRL_C, is_ctrl_c
+
+REPO = Path(imimic_gym.__file__).resolve().parents[1]
+
+
+def ctypes_error(raised: BaseException) -> BaseException:
+    """What ctypes raises when converting a call's argument raises ``raised`` (PyOpenGL's
+    conversions run Python code; a Ctrl-C there arrives this way)."""
+
+    class Converted:
+        @classmethod
+        def from_param(cls, value):
+            raise raised
+
+    absolute = ctypes.CDLL(None).abs
+    absolute.argtypes = [Converted]
+    try:
+        absolute(1)
+    except BaseException as error:
+        return error
+    raise AssertionError("the call did not fail")
+
+
+def test_ctrl_c_in_a_ctypes_calls_arguments_counts_as_ctrl_c() -> None:
+    interrupted = ctypes_error(KeyboardInterrupt())
+    assert isinstance(interrupted, ctypes.ArgumentError) and isinstance(interrupted, CTRL_C)
+    assert is_ctrl_c(interrupted)
+    assert not is_ctrl_c(ctypes_error(TypeError("not an int")))
+
+
+# Run at interpreter start (sitecustomize): send this process SIGINT when the command's
+# imports reach the module named by IMIMIC_TEST_INTERRUPT_AT, i.e. inside those imports.
+SITECUSTOMIZE = '''
+import os, signal, sys
+
+class InterruptAt:
+    def find_spec(self, name, path=None, target=None):
+        if name == os.environ["IMIMIC_TEST_INTERRUPT_AT"]:
+            sys.meta_path.remove(self)
+            os.kill(os.getpid(), signal.SIGINT)
+        return None
+
+sys.meta_path.insert(0, InterruptAt())
+'''
+
+
+@pytest.mark.parametrize("launch", ["module", "script"])
+@pytest.mark.parametrize("module", ["gymnasium", "mujoco", "imimic_gym.sweep"])
+def test_ctrl_c_while_the_command_starts_is_one_line_and_exit_130(tmp_path, launch,
+                                                                  module) -> None:
+    """A Ctrl-C during the imports of `python -m imimic_gym.cli` or of the `imimic`
+    console script (the package's, then a command's): no traceback."""
+    (tmp_path / "sitecustomize.py").write_text(SITECUSTOMIZE)
+    script = tmp_path / "imimic"  # as pip writes the console script
+    script.write_text("import sys\nfrom imimic_gym.cli import main\nsys.exit(main())\n")
+    start = ([sys.executable, "-m", "imimic_gym.cli"] if launch == "module"
+             else [sys.executable, str(script)])
+    done = subprocess.run([*start, "eval", "--backend", "ray", "--frames", "2"],
+                          capture_output=True, text=True, timeout=120, cwd=tmp_path,
+                          env={**os.environ, "PYTHONPATH": f"{tmp_path}{os.pathsep}{REPO}",
+                               "IMIMIC_TEST_INTERRUPT_AT": module,
+                               "IMIMIC_CACHE_DIR": str(tmp_path / "cache")})
+    assert done.returncode == 130, done.stderr[-3000:]
+    assert done.stderr.strip().splitlines()[-1].endswith("stopped by Ctrl-C"), done.stderr
+    assert "Traceback" not in done.stderr, done.stderr[-3000:]
