@@ -333,9 +333,10 @@ SCENARIOS: dict[str, ClipSpec] = {
         ClipSpec(name="chain-3", n_links=3, motion="spline", background="textured"),
         # The arm in 3-D (issue 36): a person facing the camera, one gesture each, and
         # "spatial" mixing them (a different sequence per seed).
-        *(ClipSpec(name=f"spatial-{gesture}", motion=gesture, n_links=2, body="person")
+        *(ClipSpec(name=f"spatial-{gesture}", motion=gesture, n_links=2, body="person",
+                   camera_distance=1.7)
           for gesture in ("reach", "cup", "raise", "curl", "wave")),
-        ClipSpec(name="spatial", motion="mix", n_links=2, body="person"),
+        ClipSpec(name="spatial", motion="mix", n_links=2, body="person", camera_distance=1.7),
     )
 }
 

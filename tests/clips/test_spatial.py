@@ -59,7 +59,7 @@ def test_the_points_project_onto_their_pixels_and_the_keypoints(clips: dict,
     projected = clip_intrinsics(clip).project(truth.points3d)
     assert np.max(np.abs(projected - truth.points2d)) < 1e-9
     assert np.max(np.abs(truth.points2d[:, :3] - truth.keypoints[:, :3])) < 0.5
-    assert np.all(truth.points3d[..., 2] > 1.5)  # in front of the camera, metres away
+    assert np.all(truth.points3d[..., 2] > 0.9)  # in front of the camera, a metre away
 
 
 @pytest.mark.parametrize("name", SPATIAL)
@@ -81,8 +81,9 @@ def test_the_depth_image_shows_the_elbow_where_the_truth_puts_it(clips: dict,
                                                                 name: str) -> None:
     """Where the forearm lies across the view (within 45 degrees of the image plane) and
     nothing hides the elbow, the rendered surface at the projected elbow lies in front of
-    the joint by less than a limb's radius (6 cm: the sleeve's 5, and a pixel's slope):
-    the arm's skin, not the wall behind it, nor anything well in front."""
+    the joint by about a limb's radius (under 7 cm: the arm's 4-5 cm, and up to 2 where a
+    bent elbow's forearm passes in front of the joint): the arm's skin, not the wall
+    behind it, nor anything well in front."""
     clip = clips[name, 0]
     truth = clip.truth
     forearm = truth.points3d[:, W] - truth.points3d[:, E]
@@ -90,7 +91,7 @@ def test_the_depth_image_shows_the_elbow_where_the_truth_puts_it(clips: dict,
     assert seen.sum() >= 20
     cols, rows = np.rint(truth.points2d[seen, E]).astype(int).T
     gap = truth.points3d[seen, E, 2] - clip.depth[np.flatnonzero(seen), rows, cols]
-    assert np.all(gap > 0.0) and np.all(gap < 0.06), (gap.min(), gap.max())
+    assert np.all(gap > 0.0) and np.all(gap < 0.07), (gap.min(), gap.max())
 
 
 def test_the_arm_frame_is_the_body_facing_the_camera(clips: dict) -> None:
