@@ -19,7 +19,7 @@ import numpy as np
 
 from imimic_gym.arms import fmt, link_frame_quat
 from imimic_gym.clips.gestures import SPATIAL_JOINT_RANGES, SPATIAL_JOINTS
-from imimic_gym.clips.scenarios import HUMAN_SEGMENTS, Appearance, ClipSpec
+from imimic_gym.clips.scenarios import HUMAN_SEGMENTS, Appearance, ClipSpec, person_look
 
 __all__ = ["ARM_SITES", "MOVING_GROUP", "camera_pose", "keypoint_names", "scene_mjcf",
            "workspace"]
@@ -83,9 +83,16 @@ def workspace(spec: ClipSpec) -> tuple[np.ndarray, float]:
     return base + np.array([centre2d[0], 0.0, centre2d[1]]), radius
 
 
-def _person_materials(appearance: Appearance | None) -> str:
+def _look(spec: ClipSpec) -> Appearance | None:
+    """The appearance the scene shows: the spec's, or for a person without one the
+    person its seed dresses (`person_look`)."""
+    if spec.appearance is None and spec.body == "person":
+        return person_look(spec.seed)
+    return spec.appearance
+
+
+def _person_materials(look: Appearance) -> str:
     """The colours only the ``person`` body has: hair, shoes, the face's details."""
-    look = appearance or Appearance()
     skin = np.array(look.skin)
     return f"""
     <material name="hair" rgba="{fmt((*look.hair, 1.0))}"/>
@@ -262,7 +269,7 @@ def _spatial_arm(spec: ClipSpec, shoulder: np.ndarray) -> str:
     so the left arm's outward is +x and its forward -y."""
     upper, fore, _ = HUMAN_SEGMENTS
     person = spec.body == "person"
-    look = spec.appearance or Appearance()
+    look = _look(spec) or Appearance()
     upper_geoms, fore_geoms, hand_geoms = (_person_arm(look, upper, fore) if person
                                            else _mannequin_arm(look, upper, fore))
     tip = 0.17 if person else HUMAN_SEGMENTS[2] + 0.033  # inside the fingers' end
@@ -305,12 +312,11 @@ def _person_arm(look: Appearance, upper: float, fore: float, moving: bool = True
     def geom(name: str, spec: str, material: str) -> str:
         return f'<geom name="{prefix}{name}" {spec} material="{material}" {group}/>'
 
-    upper_geoms = (
-        geom("upper_arm", f'type="capsule" fromto="0 0 0 0 0 {sleeve_end:.4f}" '
-                          f'size="{0.05 * b:.4f}"', "shirt")
-        + geom("upper_arm_skin", f'type="capsule" fromto="0 0 {sleeve_end:.4f} 0 0 {-upper}" '
-                                 f'size="{0.042 * b:.4f}"', "skin" if forearm == "skin"
-               else "shirt"))
+    upper_geoms = geom("upper_arm", f'type="capsule" fromto="0 0 0 0 0 {sleeve_end:.4f}" '
+                                    f'size="{0.05 * b:.4f}"', "shirt")
+    if not look.long_sleeves:
+        upper_geoms += geom("upper_arm_skin", f'type="capsule" fromto="0 0 {sleeve_end:.4f} '
+                                              f'0 0 {-upper}" size="{0.042 * b:.4f}"', "skin")
     fore_geoms = (
         geom("forearm", f'type="capsule" fromto="0 0 0 0 0 {-0.45 * fore:.4f}" '
                         f'size="{0.038 * b:.4f}"', forearm)
@@ -330,7 +336,7 @@ def _person_body(spec: ClipSpec) -> str:
     """A person facing the camera (-y): legs with shoes, hips, a torso with shoulders,
     a neck, a head with eyes, brows, nose, mouth, ears and hair, the still right arm
     hanging, and the moving spatial left arm."""
-    look = spec.appearance or Appearance()
+    look = _look(spec) or Appearance()
     b = look.build
     s = SHOULDER - np.array([0.0, 0.0, HIP_HEIGHT])
     still = _person_arm(look, HUMAN_SEGMENTS[0], HUMAN_SEGMENTS[1], moving=False,
@@ -526,8 +532,8 @@ def scene_mjcf(spec: ClipSpec, rng: np.random.Generator) -> str:
     <headlight ambient="{fmt((0.25 * light,) * 3)}" diffuse="{fmt((0.35 * light,) * 3)}" specular="0 0 0"/>
     <map znear="0.01"/>
   </visual>
-  <asset>{_materials(spec.appearance)}{
-      _person_materials(spec.appearance) if spec.body == "person" else ""}
+  <asset>{_materials(_look(spec))}{
+      _person_materials(_look(spec) or Appearance()) if spec.body == "person" else ""}
   </asset>
   <worldbody>
     {light_el}

@@ -7,10 +7,17 @@ import mujoco
 import numpy as np
 import pytest
 
+from imimic_gym.arms import fmt
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.demonstrator import scene_mjcf
 from imimic_gym.clips.gestures import GESTURES, SPATIAL_JOINT_RANGES, sample_gesture
-from imimic_gym.clips.scenarios import Appearance, ClipSpec, get_scenario, scenario_names
+from imimic_gym.clips.scenarios import (
+    Appearance,
+    ClipSpec,
+    get_scenario,
+    person_look,
+    scenario_names,
+)
 from imimic_gym.clips.synthetic import render_clip
 from imimic_gym.spatial import ARM_POINTS, ArmPose, angle_between
 from imimic_gym.spatial.truth import arm_poses, clip_intrinsics
@@ -331,3 +338,21 @@ def test_arm_poses_read_the_truth_frame_by_frame(clips: dict) -> None:
     assert np.array_equal(poses[7].pixels, clip.truth.points2d[7])
     assert angle_between(poses[7].upper_arm, clip.truth.points3d[7, E] - clip.truth.points3d[
         7, S]) < 1e-12
+
+
+def test_a_person_without_an_appearance_is_dressed_by_its_seed() -> None:
+    """Seeds dress the person differently (skin, hair, clothes, build); the motion a seed
+    draws is the same whatever the body wears, and an explicit appearance wins."""
+    looks = {person_look(seed) for seed in range(12)}
+    assert len({look.skin for look in looks}) == 12 and len({look.hair for look in looks}) > 6
+    assert {look.long_hair for look in looks} == {True, False}
+    assert person_look(3) == person_look(3)
+    spec = get_scenario("spatial-curl", seed=3, n_frames=3)
+    person, mannequin = (render_clip(s, progress=False)
+                         for s in (spec, spec.replace(body="mannequin")))
+    assert np.array_equal(person.truth.arm_angles, mannequin.truth.arm_angles)
+    chosen = Appearance(shirt=(0.9, 0.1, 0.1), hair=(0.9, 0.9, 0.1))
+    mjcf = scene_mjcf(spec.replace(appearance=chosen), np.random.default_rng(0))
+    assert '<material name="shirt" rgba="0.9 0.1 0.1 1"/>' in mjcf
+    assert '<material name="hair" rgba="0.9 0.9 0.1 1"/>' in mjcf
+    assert fmt((*person_look(3).shirt, 1.0)) in scene_mjcf(spec, np.random.default_rng(0))
