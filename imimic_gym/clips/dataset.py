@@ -31,7 +31,7 @@ from imimic_gym.checkpoints import SHIPPED_ANNOTATIONS
 from imimic_gym.clips.annotations import ArmAnnotation, image_path
 from imimic_gym.clips.cache import cache_dir
 from imimic_gym.clips.demonstrator import camera_pose, workspace
-from imimic_gym.clips.scenarios import Appearance, Background, ClipSpec
+from imimic_gym.clips.scenarios import SKIN_TONES, Appearance, Background, ClipSpec
 from imimic_gym.clips.synthetic import render_clip
 
 __all__ = ["DEFAULT_ANNOTATIONS", "IMAGES_PER_CLIP", "arm_in_frame", "generate_arms",
@@ -56,8 +56,6 @@ def _sample_spec(links: int, seed: int, rng: np.random.Generator) -> ClipSpec:
 
 
 # Skin tones from light to dark (linear RGB); a drawn tone is one of them, jittered.
-SKIN_TONES = ((0.96, 0.80, 0.69), (0.87, 0.67, 0.53), (0.71, 0.51, 0.38),
-              (0.55, 0.37, 0.26), (0.36, 0.23, 0.16))
 
 
 def arm_in_frame(spec: ClipSpec, margin: float = 4.0) -> bool:

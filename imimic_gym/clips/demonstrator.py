@@ -19,7 +19,7 @@ import numpy as np
 
 from imimic_gym.arms import fmt, link_frame_quat
 from imimic_gym.clips.gestures import SPATIAL_JOINT_RANGES, SPATIAL_JOINTS
-from imimic_gym.clips.scenarios import HUMAN_SEGMENTS, Appearance, ClipSpec
+from imimic_gym.clips.scenarios import HUMAN_SEGMENTS, Appearance, ClipSpec, person_look
 
 __all__ = ["ARM_SITES", "MOVING_GROUP", "camera_pose", "keypoint_names", "scene_mjcf",
            "workspace"]
@@ -32,6 +32,7 @@ SKIN, SHIRT, PANTS = "0.87 0.67 0.53 1", "0.22 0.36 0.66 1", "0.2 0.2 0.25 1"
 # The spatial arm's sites of `spatial.ARM_POINTS`, in that order.
 ARM_SITES = ("kp_shoulder", "kp_elbow", "kp_wrist", "arm_hand", "arm_other_shoulder",
              "arm_hip", "arm_other_hip")
+HEAD = 0.655  # the person's head centre above the hips, m
 HAND_KNUCKLES = 0.09  # wrist to the index finger's knuckle (the pose model's "hand"), m
 
 
@@ -82,9 +83,16 @@ def workspace(spec: ClipSpec) -> tuple[np.ndarray, float]:
     return base + np.array([centre2d[0], 0.0, centre2d[1]]), radius
 
 
-def _person_materials(appearance: Appearance | None) -> str:
+def _look(spec: ClipSpec) -> Appearance | None:
+    """The appearance the scene shows: the spec's, or for a person without one the
+    person its seed dresses (`person_look`)."""
+    if spec.appearance is None and spec.body == "person":
+        return person_look(spec.seed)
+    return spec.appearance
+
+
+def _person_materials(look: Appearance) -> str:
     """The colours only the ``person`` body has: hair, shoes, the face's details."""
-    look = appearance or Appearance()
     skin = np.array(look.skin)
     return f"""
     <material name="hair" rgba="{fmt((*look.hair, 1.0))}"/>
@@ -261,10 +269,10 @@ def _spatial_arm(spec: ClipSpec, shoulder: np.ndarray) -> str:
     so the left arm's outward is +x and its forward -y."""
     upper, fore, _ = HUMAN_SEGMENTS
     person = spec.body == "person"
-    look = spec.appearance or Appearance()
+    look = _look(spec) or Appearance()
     upper_geoms, fore_geoms, hand_geoms = (_person_arm(look, upper, fore) if person
                                            else _mannequin_arm(look, upper, fore))
-    tip = 0.185 if person else HUMAN_SEGMENTS[2] + 0.033
+    tip = 0.17 if person else HUMAN_SEGMENTS[2] + 0.033  # inside the fingers' end
     return (
         f'<body name="upper_arm" pos="{fmt(shoulder)}">'
         + "".join(_joint(n) for n in SPATIAL_JOINTS[:3])
@@ -304,12 +312,11 @@ def _person_arm(look: Appearance, upper: float, fore: float, moving: bool = True
     def geom(name: str, spec: str, material: str) -> str:
         return f'<geom name="{prefix}{name}" {spec} material="{material}" {group}/>'
 
-    upper_geoms = (
-        geom("upper_arm", f'type="capsule" fromto="0 0 0 0 0 {sleeve_end:.4f}" '
-                          f'size="{0.05 * b:.4f}"', "shirt")
-        + geom("upper_arm_skin", f'type="capsule" fromto="0 0 {sleeve_end:.4f} 0 0 {-upper}" '
-                                 f'size="{0.042 * b:.4f}"', "skin" if forearm == "skin"
-               else "shirt"))
+    upper_geoms = geom("upper_arm", f'type="capsule" fromto="0 0 0 0 0 {sleeve_end:.4f}" '
+                                    f'size="{0.05 * b:.4f}"', "shirt")
+    if not look.long_sleeves:
+        upper_geoms += geom("upper_arm_skin", f'type="capsule" fromto="0 0 {sleeve_end:.4f} '
+                                              f'0 0 {-upper}" size="{0.042 * b:.4f}"', "skin")
     fore_geoms = (
         geom("forearm", f'type="capsule" fromto="0 0 0 0 0 {-0.45 * fore:.4f}" '
                         f'size="{0.038 * b:.4f}"', forearm)
@@ -329,7 +336,7 @@ def _person_body(spec: ClipSpec) -> str:
     """A person facing the camera (-y): legs with shoes, hips, a torso with shoulders,
     a neck, a head with eyes, brows, nose, mouth, ears and hair, the still right arm
     hanging, and the moving spatial left arm."""
-    look = spec.appearance or Appearance()
+    look = _look(spec) or Appearance()
     b = look.build
     s = SHOULDER - np.array([0.0, 0.0, HIP_HEIGHT])
     still = _person_arm(look, HUMAN_SEGMENTS[0], HUMAN_SEGMENTS[1], moving=False,
@@ -342,27 +349,25 @@ def _person_body(spec: ClipSpec) -> str:
         f'<geom name="foot_{side}" type="box" pos="{1.1 * x:.3f} -0.05 -0.915" '
         f'size="0.045 0.115 0.035" material="shoes"/>'
         for side, x in (("l", 0.095), ("r", -0.095)))
-    hair = ('<geom name="hair" type="ellipsoid" pos="0 0.015 0.72" size="0.081 0.089 0.094" '
-            'material="hair"/>')
+    Vec = tuple[float, float, float]
+    head: list[tuple[str, str, Vec, Vec, str]] = [
+        ("hair", "ellipsoid", (0.0, 0.015, 0.04), (0.081, 0.089, 0.094), "hair")]
     if look.long_hair:
-        hair += ('<geom name="hair_long" type="ellipsoid" pos="0 0.035 0.6" '
-                 'size="0.095 0.06 0.16" material="hair"/>')
-    face = "".join(
-        f'<geom name="eye_{side}" type="ellipsoid" pos="{x} -0.074 0.7" '
-        f'size="0.015 0.012 0.009" material="eye_white"/>'
-        f'<geom name="pupil_{side}" type="sphere" pos="{x} -0.084 0.7" size="0.0065" '
-        f'material="pupil"/>'
-        f'<geom name="brow_{side}" type="box" pos="{x} -0.08 0.722" size="0.017 0.006 '
-        f'0.0035" material="hair"/>'
-        f'<geom name="ear_{side}" type="ellipsoid" pos="{2.35 * x:.4f} 0.0 0.685" '
-        f'size="0.012 0.02 0.03" material="skin_shade"/>'
-        for side, x in (("l", 0.032), ("r", -0.032)))
-    face += ('<geom name="nose" type="ellipsoid" pos="0 -0.09 0.675" size="0.012 0.018 0.022" '
-             'material="skin"/>'
-             '<geom name="nostrils" type="ellipsoid" pos="0 -0.095 0.657" size="0.011 0.008 '
-             '0.004" material="skin_shade"/>'
-             '<geom name="mouth" type="ellipsoid" pos="0 -0.078 0.632" size="0.024 0.01 '
-             '0.0065" material="lips"/>')
+        head.append(("hair_long", "ellipsoid", (0.0, 0.035, -0.08), (0.095, 0.06, 0.16), "hair"))
+    for side, x in (("l", 0.032), ("r", -0.032)):
+        head += [(f"eye_{side}", "ellipsoid", (x, -0.079, 0.02), (0.015, 0.012, 0.009),
+                  "eye_white"),
+                 (f"pupil_{side}", "sphere", (x, -0.089, 0.02), (0.0065, 0.0, 0.0), "pupil"),
+                 (f"brow_{side}", "box", (x, -0.085, 0.042), (0.017, 0.006, 0.0035), "hair"),
+                 (f"ear_{side}", "ellipsoid", (2.35 * x, 0.0, 0.005), (0.012, 0.02, 0.03),
+                  "skin_shade")]
+    head += [("nose", "ellipsoid", (0.0, -0.095, -0.005), (0.012, 0.018, 0.022), "skin"),
+             ("nostrils", "ellipsoid", (0.0, -0.1, -0.023), (0.011, 0.008, 0.004), "skin_shade"),
+             ("mouth", "ellipsoid", (0.0, -0.083, -0.048), (0.024, 0.01, 0.0065), "lips")]
+    face = "".join(  # positions from the head's centre
+        f'<geom name="{name}" type="{kind}" pos="{fmt(np.add(pos, (0, 0, HEAD)))}" '
+        f'size="{fmt(size[:1] if kind == "sphere" else size)}" material="{material}"/>'
+        for name, kind, pos, size, material in head)
     return f"""
     <body name="root" pos="0 0 0">
       <joint name="sway_x" type="slide" axis="1 0 0"/>
@@ -373,9 +378,10 @@ def _person_body(spec: ClipSpec) -> str:
         <geom name="belly" type="ellipsoid" pos="0 0 0.16" size="{0.145 * b:.4f} {0.095 * b:.4f} 0.2" material="shirt"/>
         <geom name="chest" type="ellipsoid" pos="0 -0.005 0.33" size="{0.17 * b:.4f} {0.1 * b:.4f} 0.15" material="shirt"/>
         <geom name="shoulders" type="capsule" fromto="-0.16 -0.01 0.43 0.16 -0.01 0.43" size="{0.055 * b:.4f}" material="shirt"/>
-        <geom name="neck" type="capsule" fromto="0 0.005 0.46 0 0.005 0.6" size="{0.048 * b:.4f}" material="skin"/>
-        <geom name="head" type="ellipsoid" pos="0 0 0.68" size="0.075 0.09 0.105" material="skin"/>
-        {hair}{face}
+        <geom name="trapezius" type="ellipsoid" pos="0 0.01 0.45" size="{0.13 * b:.4f} {0.07 * b:.4f} 0.05" material="shirt"/>
+        <geom name="neck" type="capsule" fromto="0 0.005 0.46 0 0.005 0.58" size="{0.048 * b:.4f}" material="skin"/>
+        <geom name="head" type="ellipsoid" pos="0 0 {HEAD:.3f}" size="0.078 0.095 0.11" material="skin"/>
+        {face}
         <body name="still_arm" pos="{fmt((-s[0], s[1], s[2]))}" euler="0 0.1 0">{still[0]}
           <body name="still_forearm" pos="0 0 {-HUMAN_SEGMENTS[0]}" euler="-0.15 0 0">{still[1]}
             <body name="still_hand" pos="0 0 {-HUMAN_SEGMENTS[1]}">{still[2]}</body>
@@ -440,8 +446,8 @@ def camera_pose(spec: ClipSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray, flo
     axes (3,) (unit, world frame) and its vertical field of view in degrees."""
     if spec.demonstrator == "servo":
         raise ValueError("camera_pose places the camera of a person's scene, not the servo's")
-    if spec.spatial:  # the person from the shins up, room for the arm raised
-        look = np.array([0.15, 0.0, 1.2])
+    if spec.spatial:  # the person from the thighs up, room for the arm raised
+        look = np.array([0.2, 0.0, 1.4])
     elif spec.demonstrator == "human":  # the person's arm in the middle
         look = np.array([0.3, 0.0, 1.35])
     else:  # the hand, filmed closer: its workspace in the middle
@@ -526,8 +532,8 @@ def scene_mjcf(spec: ClipSpec, rng: np.random.Generator) -> str:
     <headlight ambient="{fmt((0.25 * light,) * 3)}" diffuse="{fmt((0.35 * light,) * 3)}" specular="0 0 0"/>
     <map znear="0.01"/>
   </visual>
-  <asset>{_materials(spec.appearance)}{
-      _person_materials(spec.appearance) if spec.body == "person" else ""}
+  <asset>{_materials(_look(spec))}{
+      _person_materials(_look(spec) or Appearance()) if spec.body == "person" else ""}
   </asset>
   <worldbody>
     {light_el}

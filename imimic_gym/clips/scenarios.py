@@ -15,7 +15,8 @@ from imimic_gym.clips.gestures import GESTURES, Gesture
 from imimic_gym.clips.motion import MOTION_PROFILES, MotionProfile
 from imimic_gym.clips.types import Clip
 
-__all__ = ["SCENARIOS", "Appearance", "ClipSpec", "get_scenario", "scenario_names"]
+__all__ = ["SCENARIOS", "SKIN_TONES", "Appearance", "ClipSpec", "get_scenario", "person_look",
+           "scenario_names"]
 
 Demonstrator = Literal["human", "servo", "hand"]
 Background = Literal["plain", "textured", "cluttered"]
@@ -30,6 +31,14 @@ SERVO_LINK = 0.105  # the paper's paper link, 10.5 cm
 HAND_LINKS = (0.33, 0.06, 0.08)
 DEG = math.pi / 180
 RGB = tuple[float, float, float]
+# Skin from light to dark (linear RGB), and hair: black, dark brown, brown, blond, red, grey.
+SKIN_TONES = ((0.96, 0.80, 0.69), (0.87, 0.67, 0.53), (0.71, 0.51, 0.38),
+              (0.55, 0.37, 0.26), (0.36, 0.23, 0.16))
+HAIR_COLOURS = ((0.05, 0.04, 0.04), (0.16, 0.1, 0.06), (0.35, 0.22, 0.12),
+                (0.75, 0.6, 0.35), (0.55, 0.22, 0.1), (0.6, 0.6, 0.6))
+# Trousers: denim, black, grey, khaki, brown, navy.
+TROUSER_COLOURS = ((0.15, 0.2, 0.35), (0.06, 0.06, 0.07), (0.3, 0.3, 0.32),
+                   (0.55, 0.48, 0.33), (0.3, 0.2, 0.12), (0.08, 0.1, 0.2))
 
 
 @dataclass(frozen=True)
@@ -106,6 +115,29 @@ class Appearance:
                              f"{self.camera_tilt}")
 
 
+def person_look(seed: int) -> Appearance:
+    """The person a ``person`` spec without an appearance shows at ``seed``: skin tone,
+    hair colour and length, shirt, sleeves, trousers, shoes and build drawn from a stream
+    of its own (the motion's draws stay as they are); the backdrop, light and camera are
+    the defaults."""
+    rng = np.random.default_rng((seed, 0x9E75))
+
+    def rgb(values: np.ndarray) -> RGB:
+        r, g, b = (round(float(v), 3) for v in np.clip(values, 0.0, 1.0))
+        return r, g, b
+
+    skin = np.array(SKIN_TONES[rng.integers(len(SKIN_TONES))]) + rng.uniform(-0.04, 0.04, 3)
+    hair = np.array(HAIR_COLOURS[rng.integers(len(HAIR_COLOURS))]) * rng.uniform(0.85, 1.15)
+    grey = rng.uniform(0.1, 0.8)  # a shirt of any hue, saturated as clothes are
+    shirt = grey + rng.uniform(0.45, 0.8) * (rng.uniform(0.0, 1.0, 3) - grey)
+    trousers = np.array(TROUSER_COLOURS[rng.integers(len(TROUSER_COLOURS))])
+    return Appearance(skin=rgb(skin), hair=rgb(hair), long_hair=bool(rng.random() < 0.4),
+                      shirt=rgb(shirt), long_sleeves=bool(rng.random() < 0.3),
+                      pants=rgb(trousers * rng.uniform(0.8, 1.2)),
+                      shoes=rgb(np.full(3, rng.uniform(0.05, 0.8)) + rng.uniform(-0.05, 0.05, 3)),
+                      build=round(float(rng.uniform(0.9, 1.15)), 3))
+
+
 # Appearance fields only the ``person`` body shows: a spec's key leaves them out while they
 # have their defaults, so the keys of specs written before they existed stay.
 PERSON_APPEARANCE = ("hair", "long_hair", "shoes", "build")
@@ -144,7 +176,8 @@ class ClipSpec:
             and leaves the spec's `key` as it was before the field existed.
         body: the human demonstrator's figure: ``"mannequin"`` (capsules, no face or
             hands: the paper scenarios') or ``"person"`` (a face, hair, hands with
-            fingers, human proportions; the spatial arm only).
+            fingers, human proportions; the spatial arm only). A person without an
+            appearance is dressed by its seed (`person_look`).
         name: the scenario's name; not part of the clip's identity.
     """
 
@@ -333,9 +366,10 @@ SCENARIOS: dict[str, ClipSpec] = {
         ClipSpec(name="chain-3", n_links=3, motion="spline", background="textured"),
         # The arm in 3-D (issue 36): a person facing the camera, one gesture each, and
         # "spatial" mixing them (a different sequence per seed).
-        *(ClipSpec(name=f"spatial-{gesture}", motion=gesture, n_links=2, body="person")
+        *(ClipSpec(name=f"spatial-{gesture}", motion=gesture, n_links=2, body="person",
+                   camera_distance=1.7)
           for gesture in ("reach", "cup", "raise", "curl", "wave")),
-        ClipSpec(name="spatial", motion="mix", n_links=2, body="person"),
+        ClipSpec(name="spatial", motion="mix", n_links=2, body="person", camera_distance=1.7),
     )
 }
 
