@@ -344,8 +344,9 @@ def add_mimic(sub: argparse._SubParsersAction) -> None:
                             "(the arm goes limp) or hold the last pose (default: "
                             "%(default)s)")
     robot.add_argument("--dry-run", action="store_true",
-                       help="print the packets the bus would get (hex and meaning) instead "
-                            "of opening --port")
+                       help="open no port: write the packets the bus would get (hex and "
+                            "meaning) into --out/bus.log, the arm taken at the middle of "
+                            "each range")
     mimic.add_argument("--links", type=int, default=1,
                        help="moving links to copy, a chain (default: %(default)s; DON "
                             "handles 1 to 3, the CNN 1 or 2)")
