@@ -356,3 +356,20 @@ def test_a_person_without_an_appearance_is_dressed_by_its_seed() -> None:
     assert '<material name="shirt" rgba="0.9 0.1 0.1 1"/>' in mjcf
     assert '<material name="hair" rgba="0.9 0.9 0.1 1"/>' in mjcf
     assert fmt((*person_look(3).shirt, 1.0)) in scene_mjcf(spec, np.random.default_rng(0))
+
+
+def test_the_truth_follows_a_swaying_body_and_a_tilted_camera() -> None:
+    """With body sway and a raised, tilted, shifted camera of another field of view, the
+    points still project onto MuJoCo's keypoints and keep their lengths, and the hips
+    roll with the torso (the arm frame's up leaves the camera's)."""
+    look = Appearance(camera_height=0.4, camera_tilt=12.0, camera_shift=-0.2, fovy=55.0)
+    clip = render_clip(get_scenario("spatial-wave", seed=4, n_frames=40, sway=1.0,
+                                    appearance=look), progress=False)
+    truth = clip.truth
+    camera = clip_intrinsics(clip)
+    assert camera.fy == pytest.approx(120 / math.tan(math.radians(27.5)))
+    assert np.max(np.abs(truth.points2d[:, :3] - truth.keypoints[:, :3])) < 0.5
+    forearm = np.linalg.norm(truth.points3d[:, W] - truth.points3d[:, E], axis=1)
+    assert np.max(np.abs(forearm - FOREARM)) < 1e-9
+    ups = np.array([pose.arm_frame()[2] for pose in arm_poses(clip)])
+    assert np.degrees(np.max(angle_between(ups, ups[:1]))) > 2.0
