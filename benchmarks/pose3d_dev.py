@@ -101,8 +101,8 @@ def summary(poses: list[ArmPose]) -> dict[str, float]:
 
 
 def inset(poses: dict[str, ArmPose], axes: tuple[int, int], size: int) -> np.ndarray:
-    """A (size, size, 3) view of the arms on two camera axes, around the shoulder, 1.6 m
-    across."""
+    """A (size, size, 3) view of the arms on two camera axes, the shoulder in the middle,
+    1.6 m across."""
     view = np.full((size, size, 3), 30, np.uint8)
     half = size / 2
     scale = size / 1.6
@@ -137,17 +137,25 @@ def picture(frames: list[np.ndarray], runs: dict[str, list[ArmPose]],
             points = camera.project(runs[name][i].points[:4]) * scale
             for a, b in itertools.pairwise(points):
                 cv2.line(image, tuple(map(int, a)), tuple(map(int, b)), colour, 2, cv2.LINE_AA)
-        side = inset({n: runs[n][i] for n in ("pose3d", "pose-world")}, (2, 1), 150)
-        top = inset({n: runs[n][i] for n in ("pose3d", "pose-world")}, (0, 2), 150)
-        image[:150, :150], image[:150, 152:302] = side, top
+        views = [inset({n: runs[n][i] for n in ("pose3d", "pose-world")}, axes, 200)
+                 for axes in ((2, 1), (0, 2))]
+        panel = np.full((height, 204, 3), 0, np.uint8)
+        panel[:200, 2:202], panel[220:420, 2:202] = views
+        cv2.putText(panel, "side: z right, y down", (4, 214), cv2.FONT_HERSHEY_SIMPLEX, 0.4,
+                    WHITE, 1)
+        cv2.putText(panel, "top: x right, z down", (4, 434), cv2.FONT_HERSHEY_SIMPLEX, 0.4,
+                    WHITE, 1)
+        image = np.concatenate([image, panel], axis=1)
         text = (f"f{i} flex {math.degrees(lift[i].elbow_flexion):.0f} "
                 f"(world {math.degrees(runs['pose-world'][i].elbow_flexion):.0f})")
+        cv2.rectangle(image, (0, height - 32), (300, height), (0, 0, 0), -1)
         cv2.putText(image, text, (5, height - 10), cv2.FONT_HERSHEY_SIMPLEX, 0.6, WHITE, 2)
         tiles.append(image)
     width = max(t.shape[1] for t in tiles)
     tiles = [np.pad(t, ((0, 0), (0, width - t.shape[1]), (0, 0))) for t in tiles]
     sheet = np.concatenate([np.concatenate(tiles[:2], 1), np.concatenate(tiles[2:4], 1)], 0)
-    cv2.putText(sheet, title, (5, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.5, WHITE, 1)
+    cv2.rectangle(sheet, (0, 0), (8 * len(title) + 10, 28), (0, 0, 0), -1)
+    cv2.putText(sheet, title, (5, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.5, WHITE, 1, cv2.LINE_AA)
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     cv2.imwrite(path, cv2.cvtColor(sheet, cv2.COLOR_RGB2BGR))
     print(f"wrote {path}")
@@ -172,8 +180,7 @@ def run_video(path: str, max_frames: int | None, png: str | None,
             print(f"  {label}: " + ", ".join(f"{k} {v:.3g}" for k, v in summary(poses).items()))
             runs.setdefault(name, poses)
     if png:
-        picture(frames, runs, camera, png, f"{Path(path).name}: pose3d green, world orange; "
-                "insets: side (z right, y down), top (x right, z down)")
+        picture(frames, runs, camera, png, f"{Path(path).name}: pose3d green, pose-world orange")
 
 
 # Synthetic arms ---------------------------------------------------------------------
@@ -232,13 +239,31 @@ def synthetic_clip(rng: np.random.Generator, frames: int, fps: float,
     return clip
 
 
-def run_synthetic(clips: int, noise_px: float, depth_noise: float,
-                  settings: Settings) -> None:
+def model_depth_noise(rng: np.random.Generator, frames: int, scale: float,
+                      correlation_s: float, fps: float) -> np.ndarray:
+    """(frames, 7) Gaussian noise of standard deviation ``scale`` (m), each keypoint's
+    low-passed over about ``correlation_s`` seconds (0: independent from frame to
+    frame)."""
+    white = rng.normal(0, 1, (frames, 7))
+    if correlation_s <= 0:
+        return scale * white
+    keep = math.exp(-1.0 / (correlation_s * fps))
+    noise = np.zeros_like(white)
+    noise[0] = white[0]
+    for i in range(1, frames):
+        noise[i] = keep * noise[i - 1] + math.sqrt(1 - keep * keep) * white[i]
+    return scale * noise
+
+
+def run_synthetic(clips: int, noise_px: float, depth_noise: float, correlation_s: float,
+                  flip_rate: float, settings: Settings) -> None:
     """The lift on synthetic clips: 2-D keypoints projected through a 640x480 camera with
-    ``noise_px`` Gaussian pixel noise, the model's depth as the true depth times a random
-    gain in [0.5, 3] plus ``depth_noise`` (m) noise, a person's lengths 0.9-1.1 of the
-    prior's. Prints the elbow-flexion RMSE and the forearm direction error (median, p95)
-    per setting."""
+    ``noise_px`` Gaussian pixel noise; the model's depth the true depth times a random
+    gain in [0.5, 3] plus ``depth_noise`` (m) noise correlated over ``correlation_s``,
+    and ``flip_rate`` bursts a second (2-6 frames each) in which the model turns the
+    forearm's depth round (as MediaPipe does now and then); a person's lengths 0.9-1.1 of
+    the prior's. Prints the elbow-flexion RMSE and the forearm direction error (median,
+    p95) per setting."""
     from imimic_gym.spatial.lift import ArmLifter
 
     camera = Intrinsics.from_fovy(45, 640, 480)
@@ -252,8 +277,12 @@ def run_synthetic(clips: int, noise_px: float, depth_noise: float,
         pixels = camera.project(truth) + rng.normal(0, noise_px, (*truth.shape[:2], 2))
         gain = rng.uniform(0.5, 3.0)
         hips = 0.5 * (truth[:, 5, 2] + truth[:, 6, 2])
-        model_depth = (gain * (truth[..., 2] - hips[:, None])
-                       + rng.normal(0, depth_noise, truth.shape[:2])) * camera.fx / truth[:, :1, 2]
+        relative = gain * (truth[..., 2] - hips[:, None])
+        for start in np.flatnonzero(rng.random(len(truth)) < flip_rate / fps):
+            burst = slice(start, start + int(rng.integers(2, 7)))
+            relative[burst, 2:4] = 2 * relative[burst, 1:2] - relative[burst, 2:4]
+        relative += model_depth_noise(rng, len(truth), depth_noise, correlation_s, fps)
+        model_depth = relative * camera.fx / truth[:, :1, 2]
         data.append((truth, pixels, model_depth))
     for setting in settings:
         flex, fore = [], []
@@ -270,14 +299,16 @@ def run_synthetic(clips: int, noise_px: float, depth_noise: float,
 
 
 _NUMBERS = {"threshold": "sign_threshold", "quantile": "length_quantile",
-            "noise": "keypoint_noise", "margin": "sign_margin"}
+            "noise": "keypoint_noise", "margin": "sign_margin", "patience": "flip_patience",
+            "turn": "max_turn_rate"}
 
 
 def parse_settings(text: list[str] | None) -> Settings:
     """Settings of the lift, each ``KEY=VALUE[;KEY=VALUE...]`` with keys ``points`` and
     ``pixels`` (MIN_CUTOFF,BETA or none: the One Euro filters), ``threshold`` (the sign
     threshold), ``quantile`` (the length quantile) and ``noise`` (the keypoint noise),
-    ``margin`` (the sign margin);
+    ``margin`` (the sign margin), ``turn`` (the turn rate limit, rad/s) and ``patience``
+    (s);
     none given: the defaults."""
     if not text:
         return [{}]
@@ -309,12 +340,17 @@ def main() -> None:
     parser.add_argument("--noise", type=float, default=2.0, help="synthetic pixel noise")
     parser.add_argument("--depth-noise", type=float, default=0.05,
                         help="synthetic model-depth noise, metres")
+    parser.add_argument("--correlation", type=float, default=0.0,
+                        help="synthetic model-depth noise's correlation time, s")
+    parser.add_argument("--flips", type=float, default=0.0,
+                        help="synthetic model-depth flips of the forearm a second")
     parser.add_argument("--setting", nargs="*",
                         help="lift settings to compare: points=1.5,4;pixels=none;threshold=0.25")
     args = parser.parse_args()
     settings = parse_settings(args.setting)
     if args.synthetic:
-        run_synthetic(args.synthetic, args.noise, args.depth_noise, settings)
+        run_synthetic(args.synthetic, args.noise, args.depth_noise, args.correlation,
+                      args.flips, settings)
     for video in args.video:
         if "realdata/videos" in video or "coco_mini" in video:
             raise SystemExit(f"{video}: evaluation footage; develop on realdata/dev only")

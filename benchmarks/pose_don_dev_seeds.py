@@ -20,13 +20,18 @@ NAME=VALUE`` (repeatable; angles in degrees).
 
 With ``--video FILE`` it scores pose-seeded DON on footage of one's own instead, against
 the real pose model read on every frame (no truth there: agreement with the reference,
-as the `real` suite measures it), split by what gave each estimate. That is the loop for
-developing on real people without touching the shared evaluation clips.
+as the `real` suite measures it), split by what gave each estimate, with its time a
+frame over OpenCV's decode and what a line drawn in hindsight between the reference's
+own readings at the pose rate leaves (a floor for any carrier that turns steadily between
+pose frames); ``--steps`` adds DON's turn a frame against the reference's. That is the
+loop for developing on real people without touching the shared evaluation clips.
 
     .venv/bin/python benchmarks/pose_don_dev_seeds.py                      # defaults
     .venv/bin/python benchmarks/pose_don_dev_seeds.py --noise 2 --param GAIN=1.0
     .venv/bin/python benchmarks/pose_don_dev_seeds.py --pose-every 4 --no-don
     .venv/bin/python benchmarks/pose_don_dev_seeds.py --video my_camera.mp4 --param GAIN=1
+    .venv/bin/python benchmarks/pose_don_dev_seeds.py --video a.mp4 --video b.avi \
+        --frames 240 --pose-every 4 --steps
 """
 
 from __future__ import annotations
@@ -34,6 +39,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import time
 from typing import cast
 
 os.environ.setdefault("MUJOCO_GL", "egl")
@@ -108,35 +114,119 @@ def run_clip(seed: int, pose_every: int, noise: float, fps: float) -> dict[str, 
             "don_frames": sources.count("don"), "rolled_frames": sources.count("rolled")}
 
 
-def run_video(path: str, pose_every: int) -> None:
+STEP_BANDS = (0.0, 2.0, 10.0, math.inf)  # deg a frame: the reference's turn, slow to fast
+
+
+class _TurnLog(pose_don.PoseSeededDON):
+    """Pose-seeded DON that also logs, per frame, DON's forearm direction (rad, None: no
+    reading), how many times DON was seeded so far, and what gave the estimate."""
+
+    def reset(self) -> None:
+        super().reset()
+        self.log: list[tuple[float | None, int, str]] = []
+        self.seeds, self.read_direction = 0, None
+
+    def _seed(self, frame: np.ndarray, reading) -> None:
+        super()._seed(frame, reading)
+        self.seeds += 1
+
+    def _don_direction(self, don):
+        self.read_direction = super()._don_direction(don)
+        return self.read_direction
+
+    def update(self, frame: np.ndarray):
+        self.read_direction = None
+        estimate = super().update(frame)
+        self.log.append((self.read_direction, self.seeds, self.source))
+        return estimate
+
+
+def _rms(values) -> float:
+    return float(np.sqrt(np.mean(np.square(values)))) if len(values) else math.nan
+
+
+def _hindsight(reference: list[float | None], every: int) -> float:
+    """RMSE (deg) of a line drawn between the reference's own readings on every
+    ``every``-th frame, knowing the next one (so no live estimator can do it), against the
+    reference on the frames between: what reading the pose model that often leaves to
+    carry, at best, by a carrier that turns at a steady rate between them."""
+    errors = []
+    for start in range(0, len(reference) - every, every):
+        a, b = reference[start], reference[start + every]
+        if a is None or b is None:
+            continue
+        turn = float(wrap_angle(b - a))
+        for k in range(1, every):
+            value = reference[start + k]
+            if value is not None:
+                errors.append(math.degrees(abs(float(wrap_angle(a + turn * k / every - value)))))
+    return _rms(errors)
+
+
+def run_video(path: str, pose_every: int, frames: int | None, steps: bool) -> None:
     """Pose-seeded DON on a video of one's own (development footage, not the shared
     evaluation clips), against the real pose model read on every frame: the RMSE over
-    the frames both read, split by what gave each estimate."""
+    the frames both read, split by what gave each estimate; its time a frame over
+    OpenCV's decode of the same frames in the same run. With ``steps``: per step between
+    frames, DON's turn against the reference's, by how fast the reference turns."""
+    from itertools import islice
+
     from imimic_gym.clips.video import VideoReader
     from imimic_gym.estimators.pose import PoseEstimator
 
     with VideoReader(path).open() as reader:
         fps = float(reader.fps)
-    reference, estimator = PoseEstimator(fps=fps), pose_don.PoseSeededDON(
-        fps=fps, pose_every=pose_every)
+    started = time.perf_counter()
+    decoded = sum(1 for _ in islice(VideoReader(path), frames))
+    decode = (time.perf_counter() - started) / max(decoded, 1)
+    reference = PoseEstimator(fps=fps)
+    estimator = _TurnLog(fps=fps, pose_every=pose_every)
     reference.reset()
     estimator.reset()
-    rows = []
-    for frame in VideoReader(path):
-        truth, estimate = reference.update(frame), estimator.update(frame)
+    rows, seen, sides, spent = [], [], [], 0.0
+    for frame in islice(VideoReader(path), frames):
+        truth = reference.update(frame)
+        started = time.perf_counter()
+        estimate = estimator.update(frame)
+        spent += time.perf_counter() - started
+        seen.append(float(truth.angles[0]) if truth.trust > 0 else None)
+        sides.append((reference.last.side if reference.last is not None else None,
+                      estimator.last.side if estimator.last is not None else None))
         if truth.trust > 0 and estimate.trust > 0:
             error = math.degrees(abs(float(wrap_angle(estimate.angles[0] - truth.angles[0]))))
             rows.append((estimator.source, error))
+    name = os.path.basename(path)
     if not rows:
-        print(f"  {path}: the pose model and pose-seeded DON never both read the arm")
+        print(f"  {name}: the pose model and pose-seeded DON never both read the arm")
         return
     errors = np.array([e for _, e in rows])
-    split = "; ".join(f"{name} {np.sqrt(np.mean(np.square(part))):.2f} ({len(part)})"
-                      for name in ("pose", "don", "rolled")
-                      if (part := [e for source, e in rows if source == name]))
-    print(f"  {path}: RMSE vs the every-frame pose model {np.sqrt(np.mean(errors ** 2)):.2f} "
-          f"deg over {len(errors)} frames, largest {errors.max():.1f}; by source: {split}; "
-          f"pose frames {estimator.pose_frames}")
+    split = "; ".join(f"{source} {_rms(part):.2f} ({len(part)})"
+                      for source in ("pose", "don", "rolled")
+                      if (part := [e for s, e in rows if s == source]))
+    print(f"  {name}: {len(seen)} frames; RMSE vs the every-frame pose model "
+          f"{_rms(errors):.2f} deg over {len(errors)} frames, largest {errors.max():.1f}; "
+          f"by source: {split}; pose frames {estimator.pose_frames}; "
+          f"{spent / len(seen) / decode:.2f}x decode ({1e3 * decode:.1f} ms a frame); "
+          f"a line between every {pose_every}th reference reading, in hindsight: "
+          f"{_hindsight(seen, pose_every):.2f}")
+    if steps:
+        bands: list[list[float | None]] = [[] for _ in STEP_BANDS[1:]]
+        for t in range(1, len(seen)):
+            before, now = seen[t - 1], seen[t]
+            (d0, seeds0, source0), (d1, seeds1, _) = estimator.log[t - 1], estimator.log[t]
+            if (before is None or now is None or sides[t][0] != sides[t][1]
+                    or source0 == "pose"):  # a pose frame moves DON's pivot: no clean step
+                continue
+            turn = math.degrees(float(wrap_angle(now - before)))
+            band = int(np.searchsorted(STEP_BANDS, abs(turn), side="right")) - 1
+            read = d0 is not None and d1 is not None and seeds0 == seeds1
+            bands[band].append(math.degrees(float(wrap_angle(d1 - d0))) - turn
+                               if read else None)
+        print("    DON's turn a frame against the reference's: " + "; ".join(
+            f"reference {low:g}-{high:g} deg a frame: {len(band)} steps, DON read "
+            f"{sum(e is not None for e in band) / max(len(band), 1):.0%}, error "
+            f"{_rms([e for e in band if e is not None]):.1f} deg RMS"
+            for low, high, band in zip(STEP_BANDS[:-1], STEP_BANDS[1:], bands, strict=True)))
 
 
 def main() -> None:
@@ -156,10 +246,17 @@ def main() -> None:
                         help="instead of rendered clips, score it on this video of your own "
                              "against the real pose model read on every frame (repeatable; "
                              "not the shared evaluation clips)")
+    parser.add_argument("--frames", type=int, default=None, metavar="N",
+                        help="with --video: only the first N frames of each (default: all)")
+    parser.add_argument("--steps", action="store_true",
+                        help="with --video: also DON's turn a frame against the reference's, "
+                             "by how fast the reference turns")
     parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                         help="a constant of estimators/pose_don.py: " + ", ".join(TUNABLE)
                              + " (angles in degrees)")
     args = parser.parse_args()
+    if args.frames is not None and args.frames < 1:
+        parser.error(f"--frames takes a whole number of frames >= 1, got {args.frames}")
     for setting in args.param:
         name, _, value = setting.partition("=")
         if name not in TUNABLE:
@@ -172,7 +269,7 @@ def main() -> None:
     if args.video:
         print(f"{machine()}\npose_every {args.pose_every}, {settings}")
         for path in args.video:
-            run_video(path, args.pose_every)
+            run_video(path, args.pose_every, args.frames, args.steps)
         return
     rows = [run_clip(seed, args.pose_every, args.noise, args.fps)
             for seed in range(*args.seeds)]

@@ -1,6 +1,6 @@
 """imimic_gym: a robot arm that learns to copy a human arm it sees on video."""
 
-from imimic_gym.interrupts import quiet_start
+from imimic_gym._quiet_start import quiet_start
 
 quiet_start()  # the imimic command: a Ctrl-C in the imports below is one line, no traceback
 

@@ -1,5 +1,5 @@
 """Where independent pieces of work run: here, one after another, or as Ray tasks on a
-local or existing Ray cluster (``pip install 'imimic_gym[ray]'``).
+local or existing Ray cluster (``pip install '.[ray]'`` in a clone).
 
 `fan_out(fn, items)` calls ``fn(item)`` for every item and yields an `Outcome` as each
 finishes (on Ray in completion order, here in item order). A call that raises is tried
@@ -54,8 +54,8 @@ def _import_ray():
     try:
         import ray
     except ImportError as error:
-        raise BackendError("the ray backend needs Ray: pip install 'imimic_gym[ray]' (make "
-                           "setup installs it)") from error
+        raise BackendError("the ray backend needs Ray: pip install '.[ray]' in a clone of "
+                           "imimic_gym (make setup installs it)") from error
     return ray
 
 

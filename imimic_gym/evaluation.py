@@ -24,6 +24,7 @@ from imimic_gym.estimators.registry import (
     get_estimator,
 )
 from imimic_gym.estimators.types import EstimatorContext
+from imimic_gym.kinematics import wrap_angle
 from imimic_gym.metrics import OCCLUDED, angle_rmse_deg, lag_frames
 
 __all__ = ["WARM_UP_S", "cannot_score", "clip_context", "evaluate_clip", "evaluate_estimator",
@@ -78,9 +79,11 @@ def evaluate_estimator(scenario: str, estimator: str, episodes: int = 3,
 
 
 def evaluate_clip(scenario: str, estimator: str, seed: int, modality: str = "rgb",
-                  frames: int | None = None) -> dict[str, Any]:
-    """Score ``estimator`` on the clip of ``scenario`` with this ``seed`` (``frames`` long:
-    default the scenario's) against its truth: one row of `evaluate_estimator`.
+                  frames: int | None = None,
+                  params: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Score ``estimator`` (built with ``params``, e.g. the CNN's ``checkpoint``) on the
+    clip of ``scenario`` with this ``seed`` (``frames`` long: default the scenario's)
+    against its truth: one row of `evaluate_estimator`.
 
     ``modality="depth"`` feeds the estimator the clip's depth video as grey frames, near =
     bright, exactly as ``ImitateVideo-v0(modality="depth")`` shows it.
@@ -108,7 +111,7 @@ def evaluate_clip(scenario: str, estimator: str, seed: int, modality: str = "rgb
     truth = clip.truth.angles
     warm = round(WARM_UP_S * clip.fps)
     context = clip_context(spec, clip, modality)
-    estimates = run_estimator(build_estimator(estimator, context), images)
+    estimates = run_estimator(build_estimator(estimator, context, **(params or {})), images)
     angles = np.array([e.angles for e in estimates])
     row: dict[str, Any] = {
         "seed": seed,
@@ -140,7 +143,11 @@ def _evaluate_spatial(spec: ClipSpec, clip: Clip, estimator: str, seed: int,
     forearm's and upper arm's direction errors, median and 95th percentile), frames
     without a reading left out and counted. Each RGB frame comes with its metric depth
     image, as from an RGB-D camera: the estimators that read depth (``pose3d-depth``) use
-    it, the others do not."""
+    it, the others do not. And the 2-D reading under it (the pose model's keypoints):
+    ``arm_found``, the share of frames where it reads the moving arm (the clip's side,
+    with trust), and ``elbow_2d_rmse_deg``, the elbow's angle in the image on those
+    frames against the truth's pixels (``elbow_2d_across_rmse_deg``: on those where the
+    upper arm and forearm both lie within 45 degrees of the image plane)."""
     from imimic_gym.estimators.registry import build_spatial_estimator
     from imimic_gym.metrics import spatial_metrics
     from imimic_gym.spatial.truth import arm_poses, clip_intrinsics
@@ -157,7 +164,21 @@ def _evaluate_spatial(spec: ClipSpec, clip: Clip, estimator: str, seed: int,
         return np.array([getattr(pose, what) for pose in which])
 
     read = np.array([pose.trust > 0 for pose in poses])
+    found = read & np.array([pose.side == clip.meta["arm_side"] for pose in poses])
+    elbow_2d = np.array([wrap_angle(p.to_planar(1)[0] - t.to_planar(1)[0])
+                         for p, t in zip(poses, truth, strict=True)])
+    # Both segments within 45 degrees of the image plane: elsewhere a foreshortened
+    # segment's image direction turns by tens of degrees for a pixel.
+    across = found & np.array([max(abs(t.upper_arm[2]), abs(t.forearm[2])) < np.sqrt(0.5)
+                               for t in truth])
+
+    def rmse(errors: np.ndarray) -> float | None:
+        return float(np.degrees(np.sqrt(np.mean(errors**2)))) if errors.size else None
+
     return {"seed": seed,
+            "arm_found": float(found.mean()),
+            "elbow_2d_rmse_deg": rmse(elbow_2d[found]),
+            "elbow_2d_across_rmse_deg": rmse(elbow_2d[across]),
             **spatial_metrics(stack(poses, "upper_arm"), stack(poses, "forearm"),
                               stack(poses, "elbow_flexion"), stack(truth, "upper_arm"),
                               stack(truth, "forearm"), stack(truth, "elbow_flexion"), read),

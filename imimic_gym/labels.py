@@ -278,6 +278,8 @@ def label_video(source: str | Path, out: str | Path, arm: str = "auto",
                                "height": int(frame.shape[0]), "frame_index": i})
                 readings.append(reading)
                 bar.update(1)
+            bar.total = bar.n  # the end of the footage: the bar ends at the frames it held
+            bar.refresh()
     except CTRL_C as error:
         if not (readings and is_ctrl_c(error)):
             raise
@@ -287,8 +289,7 @@ def label_video(source: str | Path, out: str | Path, arm: str = "auto",
         reader.close()
     labels = _labels(readings, min_confidence)
     skipped = reader.skipped_frames
-    if (ended == "end of footage" and reported is not None
-            and len(readings) + skipped < reported):
+    if ended == "end of footage" and reader.ended_early():
         ended = (f"footage ended early: {len(readings)} of the {reported} frames its "
                  f"container reports{f' ({skipped} more failed to decode)' if skipped else ''}"
                  f" (a truncated or damaged file?)")

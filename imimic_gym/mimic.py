@@ -44,7 +44,7 @@ from imimic_gym.clips.video_writer import write_video
 from imimic_gym.envs.imitate_video import imitate_env
 from imimic_gym.estimators.registry import get_estimator
 from imimic_gym.hardware.so101 import PortLostError as RobotLinkLost
-from imimic_gym.interrupts import CTRL_C, is_ctrl_c
+from imimic_gym.interrupts import CTRL_C, is_ctrl_c, unstoppable
 from imimic_gym.rollout import Observer, Step, Trajectory, episode
 from imimic_gym.wrappers import EstimatorObservation, RegistryObservation
 from imimic_gym.wrappers.spatial import RetargetedEstimator
@@ -381,23 +381,29 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
             ended = f"stopped: {error}"
         finally:
             wall = time.perf_counter() - started
+            if ended == "end of footage":  # the bar ends at the frames the footage held
+                bar.total = bar.n
+                bar.refresh()
             bar.close()
             env.close()
             if hasattr(clip.frames, "close"):
                 clip.frames.close()
             if servo is not None:
-                servo.close()
+                with unstoppable():  # a second Ctrl-C must not cut the release short
+                    servo.close()
     frames = len(log.time)
-    skipped = int(getattr(getattr(clip.frames, "reader", None), "skipped_frames", 0))
+    reader = getattr(clip.frames, "reader", None)
+    skipped = int(getattr(reader, "skipped_frames", 0))
     stopped = ended != "end of footage"  # by Ctrl-C: too few frames is then no error
     if not stopped and frames:
         if live and frames < len(clip):
             ended = "camera stopped"
         elif known_length and frames + skipped < len(clip):
-            ended = (f"footage ended early: {frames} of the {len(clip)} frames "
-                     f"{'asked for' if cut_short else 'its container reports'}"
-                     f"{f' ({skipped} more failed to decode)' if skipped else ''} "
-                     f"(a truncated or damaged file?)")
+            if reader is None or reader.ended_early():  # else an intact file's end
+                ended = (f"footage ended early: {frames} of the {len(clip)} frames "
+                         f"{'asked for' if cut_short else 'its container reports'}"
+                         f"{f' ({skipped} more failed to decode)' if skipped else ''} "
+                         f"(a truncated or damaged file?)")
         elif cut_short:
             ended = f"stopped at the {len(clip)} frames asked for"
     if frames:

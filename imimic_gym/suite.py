@@ -33,16 +33,18 @@ METRICS = ("rmse_deg", "max_error_deg", "lag_frames", "jerk_deg_s3", "recovery_s
            "mean_trust")
 
 
-def estimator_wrapper(name: str) -> Callable[[gym.Env], gym.Wrapper]:
+def estimator_wrapper(name: str, params: tuple[tuple[str, Any], ...] = ()
+                      ) -> Callable[[gym.Env], gym.Wrapper]:
     """A picklable wrapper factory (``gym.make_vec(wrappers=[...])``) that adds the
-    registered estimator ``name``'s ``obs["estimate"]`` and drops the frame."""
-    return functools.partial(_wrap, name=name)
+    registered estimator ``name``'s ``obs["estimate"]`` (built with ``params``, (name,
+    value) pairs) and drops the frame."""
+    return functools.partial(_wrap, name=name, params=params)
 
 
-def _wrap(env: gym.Env, name: str) -> gym.Wrapper:
+def _wrap(env: gym.Env, name: str, params: tuple[tuple[str, Any], ...] = ()) -> gym.Wrapper:
     from imimic_gym.wrappers import RegistryObservation
 
-    return RegistryObservation(env, name, keep_frame=False)
+    return RegistryObservation(env, name, keep_frame=False, **dict(params))
 
 
 def _oracle(env: gym.Env):
@@ -81,13 +83,15 @@ CONTROLLERS: dict[str, tuple[str, Callable[[gym.Env], Any]]] = {
 
 @dataclass(frozen=True)
 class RunConfig:
-    """One cell of the grid: a scenario, an estimator, a controller, the clip seeds."""
+    """One cell of the grid: a scenario, an estimator (with its ``estimator_params``,
+    (name, value) pairs such as the CNN's checkpoint), a controller, the clip seeds."""
 
     scenario: str
     estimator: str
     controller: str
     seeds: tuple[int, ...]
     frames: int | None = None
+    estimator_params: tuple[tuple[str, Any], ...] = ()
 
     def __post_init__(self) -> None:
         get_scenario(self.scenario)
@@ -117,7 +121,8 @@ class RunConfig:
         return kwargs
 
     def make_env(self) -> gym.Env:
-        return _wrap(gym.make(self.env_id, **self.env_kwargs()), self.estimator)
+        return _wrap(gym.make(self.env_id, **self.env_kwargs()), self.estimator,
+                     self.estimator_params)
 
 
 def run_config(config: RunConfig, num_envs: int = 1) -> list[Trajectory]:
@@ -145,7 +150,8 @@ def _run_vector(config: RunConfig, num_envs: int) -> list[Trajectory]:
     vec = cast("gym.vector.SyncVectorEnv | gym.vector.AsyncVectorEnv",
                gym.make_vec(config.env_id, num_envs=num_envs,
                             vectorization_mode="sync" if sync else "async",
-                            wrappers=[estimator_wrapper(config.estimator)],
+                            wrappers=[estimator_wrapper(config.estimator,
+                                                        config.estimator_params)],
                             **config.env_kwargs()))
     factory = CONTROLLERS[config.controller][1]
     template = None if sync else config.make_env()

@@ -26,9 +26,10 @@ import numpy as np
 from tqdm import tqdm
 
 from imimic_gym.backends import fan_out
+from imimic_gym.interrupts import CTRL_C, is_ctrl_c
 
-__all__ = ["Cell", "SweepError", "SweepResult", "read_journal", "run_cell", "run_sweep",
-           "summaries"]
+__all__ = ["Cell", "SweepError", "SweepInterrupted", "SweepResult", "read_journal", "run_cell",
+           "run_sweep", "summaries"]
 
 
 class SweepError(ValueError):
@@ -122,6 +123,15 @@ class SweepResult:
     computed: list[Cell]
 
 
+class SweepInterrupted(KeyboardInterrupt):
+    """Ctrl-C stopped a sweep: ``result`` holds the cells that had finished (journalled,
+    if there is a journal)."""
+
+    def __init__(self, result: SweepResult) -> None:
+        super().__init__()
+        self.result = result
+
+
 def read_journal(path: str | Path) -> dict[str, dict[str, Any]]:
     """The journal's last line per cell key (lines that do not parse, such as one cut short
     by a kill, are skipped)."""
@@ -144,7 +154,8 @@ def run_sweep(cells: Sequence[Cell], journal: str | Path | None = None, resume: 
               progress: bool = True) -> SweepResult:
     """Run ``cells`` on ``backend`` (a cell that raises is retried ``retries`` times, then
     reported by name), appending each to ``journal`` as it finishes. With ``resume`` the
-    cells that already have an ok line in ``journal`` are taken from it, not run."""
+    cells that already have an ok line in ``journal`` are taken from it, not run. Ctrl-C
+    raises `SweepInterrupted` (a KeyboardInterrupt) with the cells that had finished."""
     done: dict[str, dict[str, Any]] = {}
     if journal is not None:
         journal = Path(journal)
@@ -186,6 +197,10 @@ def run_sweep(cells: Sequence[Cell], journal: str | Path | None = None, resume: 
                 stream.flush()
                 os.fsync(stream.fileno())
             bar.update()
+    except CTRL_C as error:
+        if not is_ctrl_c(error):
+            raise
+        raise SweepInterrupted(result) from error
     finally:
         bar.close()
         if stream is not None:

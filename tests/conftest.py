@@ -50,6 +50,30 @@ def truncated_avi(tmp_path_factory: pytest.TempPathFactory):
     return folder / "cut.avi"
 
 
+@pytest.fixture(scope="session")
+def edit_listed_mp4(servo_clip, tmp_path_factory: pytest.TempPathFactory):
+    """An intact H.264 mp4 whose container reports 30 frames and decodes 24, as phone
+    videos trimmed without re-encoding do: 30 frames of the servo clip in one group of
+    pictures, cut at 0.2 s by stream copy, so the mp4 keeps every packet from the key
+    frame and an edit list that starts the video 6 frames in (made with imageio-ffmpeg's
+    ffmpeg)."""
+    import subprocess
+
+    import imageio_ffmpeg
+
+    from imimic_gym.clips.video_writer import write_video
+
+    folder = tmp_path_factory.mktemp("edit_list")
+    whole = write_video(folder / "whole.mp4", servo_clip.frames[:30], 30.0)
+    keyframe_once = folder / "one_gop.mp4"
+    ffmpeg = [imageio_ffmpeg.get_ffmpeg_exe(), "-nostdin", "-v", "error", "-y"]
+    subprocess.run([*ffmpeg, "-i", str(whole), "-c:v", "libx264", "-g", "300",
+                    "-pix_fmt", "yuv420p", str(keyframe_once)], check=True, timeout=120)
+    subprocess.run([*ffmpeg, "-ss", "0.2", "-i", str(keyframe_once), "-c", "copy",
+                    str(folder / "trimmed.mp4")], check=True, timeout=120)
+    return folder / "trimmed.mp4"
+
+
 @pytest.fixture(scope="module")
 def local_ray():
     """A real Ray on this machine (the ray extra; make setup installs it): 2 CPUs, no

@@ -1,3 +1,4 @@
+import csv
 import json
 import os
 import signal
@@ -386,3 +387,137 @@ def test_ctrl_c_before_any_result_leaves_an_earlier_json_alone(tmp_path, monkeyp
     assert earlier.read_text() == '[{"earlier": "run"}]\n'
     assert "kept the 0 results" in capsys.readouterr().err
 
+
+
+@pytest.fixture(scope="module")
+def other_cnn(tmp_path_factory) -> Path:
+    """A CNN checkpoint that is not the 1-link default: the shipped 2-link network's
+    weights and metadata, copied where a user's training run would put them."""
+    import shutil
+
+    from imimic_gym.estimators.cnn import default_checkpoint
+
+    folder = tmp_path_factory.mktemp("mine")
+    for suffix in (".pt", ".json"):
+        shutil.copyfile(default_checkpoint(2).with_suffix(suffix), folder / f"cnn{suffix}")
+    return folder / "cnn.pt"
+
+
+def checkpoint_refusals(folder: Path, other: Path) -> list[tuple[list[str], str]]:
+    """(argv, the one line expected) for each misuse of --checkpoint."""
+    garbage = folder / "garbage.pt"
+    garbage.write_bytes(b"not a torch file")
+    altered = folder / "altered.pt"
+    altered.write_bytes(other.read_bytes()[:-1] + bytes([other.read_bytes()[-1] ^ 1]))
+    (folder / "altered.json").write_text(other.with_suffix(".json").read_text())
+    cnn = ["--estimator", "cnn", "--checkpoint"]
+    return [
+        (["mimic", "--video", "x.mp4", "--checkpoint", str(other)],
+         "imimic mimic: --checkpoint is the weights of --estimator cnn; pose takes none"),
+        (["mimic", "--video", "x.mp4", "--estimator", "don", "--checkpoint", str(other)],
+         "imimic mimic: --checkpoint is the weights of --estimator cnn; don takes none"),
+        (["demo", "--checkpoint", str(other)],
+         "imimic demo: --checkpoint is the weights of --estimator cnn; the default estimator "
+         "takes none"),
+        (["eval", "--estimator", "cnn", "don", "--checkpoint", str(other)],
+         "imimic eval: --checkpoint is the weights of --estimator cnn; don takes none"),
+        (["eval", *cnn, str(other), "--backend", "ray"],
+         "imimic eval: --checkpoint runs here; --backend ray and --results run the shipped"),
+        (["eval", "--paper", "--checkpoint", str(other)], "it does not take --checkpoint"),
+        (["mimic", "--video", "x.mp4", *cnn, str(folder / "gone.pt")],
+         f"imimic mimic: --checkpoint: checkpoint {folder / 'gone.pt'} not found"),
+        (["demo", *cnn, str(garbage)],
+         f"imimic demo: --checkpoint: checkpoint {garbage} is not a readable torch state_dict"),
+        (["eval", *cnn, str(altered)],
+         f"imimic eval: --checkpoint: checkpoint {altered} does not match the SHA-256"),
+    ]
+
+
+def test_a_checkpoint_that_cannot_be_used_is_one_line_before_any_work(other_cnn, tmp_path,
+                                                                      capsys) -> None:
+    for argv, message in checkpoint_refusals(tmp_path, other_cnn):
+        out = tmp_path / "out"
+        with pytest.raises(SystemExit) as stop:
+            main([*argv, *(["--out", str(out)] if argv[0] != "eval" else [])])
+        err = capsys.readouterr().err
+        assert stop.value.code == 2, argv
+        assert len(err.strip().splitlines()) == 1 and message in err, (argv, err)
+        assert not out.exists()
+
+
+def test_the_checkpoint_reaches_the_cnn_in_mimic_eval_and_demo(other_cnn, tmp_path) -> None:
+    from imimic_gym.clips import get_scenario, load_clip
+    from imimic_gym.clips.video_writer import write_video
+    from imimic_gym.evaluation import evaluate_clip
+
+    clip = load_clip(get_scenario("default", seed=5, n_frames=20), progress=False)
+    video = write_video(tmp_path / "person.mp4", clip.frames, clip.fps)
+    angles = {}
+    for name, extra in (("shipped", []), ("mine", ["--checkpoint", str(other_cnn)])):
+        out = tmp_path / name
+        assert main(["mimic", "--video", str(video), "--estimator", "cnn", "--out",
+                     str(out / "mimic"), *extra]) == 0
+        with open(out / "mimic" / "mimic.csv", newline="") as rows:
+            angles[name] = [row["angle_rad"] for row in csv.DictReader(rows)]
+        assert main(["eval", "--scenario", "default", "--estimator", "cnn", "--episodes", "1",
+                     "--frames", "20", "--json", str(out / "eval.json"), *extra]) == 0
+        assert main(["demo", "--scenario", "default", "--estimator", "cnn", "--frames", "20",
+                     "--out", str(out / "demo"), *extra]) == 0
+    assert angles["mine"] != angles["shipped"]
+    scored = {name: json.loads((tmp_path / name / "eval.json").read_text())[0]["rows"][0]
+              for name in angles}
+    assert scored["mine"]["rmse_deg"] != scored["shipped"]["rmse_deg"]
+    assert scored["mine"]["rmse_deg"] == evaluate_clip(
+        "default", "cnn", 1000, frames=20, params={"checkpoint": str(other_cnn)})["rmse_deg"]
+    demos = [json.loads((tmp_path / name / "demo" / "metrics.json").read_text())["rmse_deg"]
+             for name in angles]
+    assert demos[0] != demos[1]
+
+
+def test_a_row_that_ctrl_c_cut_short_is_marked(tmp_path, monkeypatch, capsys) -> None:
+    """Ctrl-C during the second of two clips (here raised where it would land): the row
+    printed over the one clip that finished says so."""
+    import imimic_gym.evaluation as evaluation
+
+    real, calls = evaluation.evaluate_clip, []
+
+    def second_interrupted(*args, **kwargs):
+        calls.append(args)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(evaluation, "evaluate_clip", second_interrupted)
+    assert main(["eval", "--scenario", "exp2-servo", "--episodes", "2", "--frames", "20",
+                 "--json", str(tmp_path / "kept.json")]) == 130
+    rows = [line for line in capsys.readouterr().out.splitlines() if " rmse " in line]
+    assert len(rows) == 1 and rows[0].endswith("(partial: stopped by Ctrl-C, 1 of 2 clips)")
+
+
+def test_ctrl_c_during_a_sweep_says_what_was_kept_and_how_to_go_on(tmp_path) -> None:
+    """A real SIGINT once a first cell is journalled: exit 130, and stderr ends with how
+    many cells had finished and the command that resumes the sweep."""
+    journal = tmp_path / "cells.jsonl"
+    argv = ["eval", "--scenario", "exp2-servo", "default", "chain-2", "--estimator", "don",
+            "--episodes", "2", "--frames", "40", "--results", str(journal)]
+    run = subprocess.Popen([sys.executable, "-m", "imimic_gym.cli", *argv],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           env={**os.environ, "MUJOCO_GL": "egl",
+                                "IMIMIC_CACHE_DIR": str(tmp_path / "cache")})
+    try:
+        deadline = time.monotonic() + 240
+        while not (journal.exists() and journal.read_text().count("\n") >= 1):
+            assert run.poll() is None and time.monotonic() < deadline, run.communicate()[1]
+            time.sleep(0.05)
+        run.send_signal(signal.SIGINT)
+        _, err = run.communicate(timeout=120)
+    finally:
+        if run.poll() is None:
+            run.kill()
+            run.communicate()
+    assert run.returncode == 130, err[-3000:]
+    kept = journal.read_text().count("\n")
+    assert 1 <= kept < 6, err[-3000:]
+    assert err.strip().splitlines()[-2:] == [
+        f"imimic eval: stopped by Ctrl-C; {kept} of 6 cells had finished, kept in {journal}; "
+        "go on with:", "  imimic " + " ".join([*argv, "--resume"])], err[-3000:]

@@ -12,6 +12,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import imimic_gym
 from imimic_gym.envs.imitate_video import ImitateVideoEnv, SimulationUnstableError
+from imimic_gym.envs.imitate_video_3d import ImitateVideo3DEnv
 from imimic_gym.kinematics import wrap_angle
 
 FAST = {"n_frames": 30}
@@ -250,10 +251,11 @@ def test_render_shows_video_and_robot_side_by_side() -> None:
     env.close()
 
 
-def test_arguments_table_matches_the_signature() -> None:
-    doc = ImitateVideoEnv.__doc__
+@pytest.mark.parametrize("env_class", [ImitateVideoEnv, ImitateVideo3DEnv])
+def test_arguments_table_matches_the_signature(env_class: type) -> None:
+    doc = env_class.__doc__
     table = dict(re.findall(r"^\s*\| `(\w+)` \| `([^`]*)` \|", doc, flags=re.MULTILINE))
-    signature = inspect.signature(ImitateVideoEnv.__init__).parameters
+    signature = inspect.signature(env_class.__init__).parameters
     params = {k: v.default for k, v in signature.items() if k != "self"}
     assert set(table) == set(params)
     for name, default in params.items():

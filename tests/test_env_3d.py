@@ -1,8 +1,5 @@
 """ImitateVideo3D-v0: the SO-101 copying a spatial demonstrator through v0's machinery."""
 
-import ast
-import inspect
-import re
 import warnings
 
 import gymnasium as gym
@@ -12,7 +9,6 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import imimic_gym  # noqa: F401  (registers the envs)
 from imimic_gym.controllers import OracleController, PositionController
-from imimic_gym.envs.imitate_video_3d import ImitateVideo3DEnv
 from imimic_gym.robots import JOINT_NAMES
 from imimic_gym.rollout import run_episode
 
@@ -97,13 +93,3 @@ def test_bad_arguments_are_named() -> None:
         make(robot="ur5")
     with pytest.raises(ValueError, match="mapping must be one of"):
         make(mapping="sideways")
-
-
-def test_arguments_table_matches_the_signature() -> None:
-    doc = ImitateVideo3DEnv.__doc__
-    table = dict(re.findall(r"^\s*\| `(\w+)` \| `([^`]*)` \|", doc, flags=re.MULTILINE))
-    signature = inspect.signature(ImitateVideo3DEnv.__init__).parameters
-    params = {k: v.default for k, v in signature.items() if k != "self"}
-    assert set(table) == set(params)
-    for name, default in params.items():
-        assert ast.literal_eval(table[name]) == default, name

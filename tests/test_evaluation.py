@@ -198,3 +198,42 @@ def test_eval_scores_photos_with_pcp_and_the_elbow_error(tmp_path) -> None:
              str(tmp_path / "images"), "--estimator", "don"])
     with pytest.raises(SystemExit, match=r"--photos .* and --images .* go together"):
         cli(["eval", "--photos", str(tmp_path / "arms.json")])
+
+
+def test_eval_on_photos_with_the_pose_model_keeps_stderr_quiet(tmp_path) -> None:
+    """MediaPipe's native log lines (two a photo, and more as the model starts) stay off
+    stderr unless --verbose asks for them: at most 3 lines in all."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    import cv2
+
+    from imimic_gym.clips.annotations import ArmAnnotation, write_annotations
+    from imimic_gym.clips.cache import load_clip
+    from imimic_gym.clips.scenarios import get_scenario
+
+    clip = load_clip(get_scenario("default", seed=5, n_frames=12), progress=False)
+    (tmp_path / "images").mkdir()
+    arms = []
+    for i in (2, 5, 8, 11):
+        name = f"frame{i}.jpg"
+        cv2.imwrite(str(tmp_path / "images" / name),
+                    cv2.cvtColor(clip.frames[i], cv2.COLOR_RGB2BGR))
+        arms.append(ArmAnnotation(name, 320, 240, clip.truth.keypoints[i][:3],
+                                  np.ones(3, bool), image_id=i))
+    write_annotations(tmp_path / "arms.json", arms)
+    command = [sys.executable, "-m", "imimic_gym.cli", "eval", "--photos",
+               str(tmp_path / "arms.json"), "--images", str(tmp_path / "images"),
+               "--estimator", "pose", "--json", str(tmp_path / "out.json")]
+    runs = {verbose: subprocess.run(command + (["--verbose"] if verbose else []),
+                                    capture_output=True, text=True, timeout=300,
+                                    env={**os.environ, "MUJOCO_GL": "egl"})
+            for verbose in (False, True)}
+    for run in runs.values():
+        assert run.returncode == 0, run.stderr[-3000:]
+    assert json.loads((tmp_path / "out.json").read_text())[0]["photos"] == 4
+    quiet, verbose = (len(runs[v].stderr.splitlines()) for v in (False, True))
+    assert quiet <= 3, runs[False].stderr
+    assert verbose > quiet  # the lines are there, for whoever asks

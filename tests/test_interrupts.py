@@ -40,6 +40,20 @@ def test_ctrl_c_in_a_ctypes_calls_arguments_counts_as_ctrl_c() -> None:
     assert not is_ctrl_c(ctypes_error(TypeError("not an int")))
 
 
+def test_ctrl_c_stopping_a_compiled_modules_initialisation_counts_as_ctrl_c() -> None:
+    """A pybind11 module whose initialisation Ctrl-C stops raises ImportError
+    ("initialization failed") from the KeyboardInterrupt; any other ImportError is not."""
+    try:
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as interrupt:
+            raise ImportError("initialization failed") from interrupt
+    except ImportError as error:
+        stopped = error
+    assert isinstance(stopped, CTRL_C) and is_ctrl_c(stopped)
+    assert not is_ctrl_c(ImportError("No module named 'ray'"))
+
+
 # Run at interpreter start (sitecustomize): send this process SIGINT when the command's
 # imports reach the module named by IMIMIC_TEST_INTERRUPT_AT, i.e. inside those imports.
 SITECUSTOMIZE = '''
@@ -75,3 +89,21 @@ def test_ctrl_c_while_the_command_starts_is_one_line_and_exit_130(tmp_path, laun
     assert done.returncode == 130, done.stderr[-3000:]
     assert done.stderr.strip().splitlines()[-1].endswith("stopped by Ctrl-C"), done.stderr
     assert "Traceback" not in done.stderr, done.stderr[-3000:]
+
+
+def test_unstoppable_ignores_ctrl_c_inside_and_restores_it() -> None:
+    import signal
+    import time
+
+    from imimic_gym.interrupts import unstoppable
+
+    before = signal.getsignal(signal.SIGINT)
+    finished = False
+    with unstoppable():
+        os.kill(os.getpid(), signal.SIGINT)  # handled by this (main) thread at once
+        time.sleep(0.05)
+        finished = True
+    assert finished and signal.getsignal(signal.SIGINT) is before
+    with pytest.raises(KeyboardInterrupt):
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(5)  # interrupted by the KeyboardInterrupt long before

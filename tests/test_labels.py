@@ -142,6 +142,13 @@ def test_label_says_when_a_file_holds_fewer_frames_than_it_reports(truncated_avi
     assert summary["ended"].startswith(f"footage ended early: {summary['frames']} of the 30 ")
 
 
+def test_label_takes_an_intact_file_whose_container_counts_more_frames(edit_listed_mp4,
+                                                                       tmp_path) -> None:
+    summary = label_video(edit_listed_mp4, tmp_path / "out", progress=False)
+    assert (summary["reported_frames"], summary["frames"]) == (30, 24)
+    assert summary["ended"] == "end of footage"
+
+
 def test_ctrl_c_while_labelling_keeps_the_frames_read(person_video, tmp_path,
                                                       monkeypatch) -> None:
     from imimic_gym.estimators.pose import PoseEstimator
@@ -189,3 +196,45 @@ def test_a_link_seen_end_on_is_no_reading() -> None:
     labelled = np.array([True, True, True, True, True, False])
     np.testing.assert_array_equal(end_on(keypoints, labelled),
                                   [False, False, True, False, True, False])
+
+
+def test_label_points_at_the_training_script_and_its_time_split(person_video, tmp_path,
+                                                                capsys) -> None:
+    _, video = person_video
+    assert main(["label", "--video", str(video), "--out", str(tmp_path / "out")]) == 0
+    said = capsys.readouterr().out
+    shown = said.split("train: python ", 1)[1].split()[0]
+    assert Path(shown).resolve() == TRAIN.resolve()
+    assert f"--images {tmp_path / 'out' / 'images'} --split time" in said
+
+
+def test_label_of_no_arm_suggests_no_training(tmp_path, capsys) -> None:
+    write_video(tmp_path / "empty.mp4", np.full((6, 64, 80, 3), 90, np.uint8), 30.0)
+    assert main(["label", "--video", str(tmp_path / "empty.mp4"), "--out",
+                 str(tmp_path / "out")]) == 0
+    said = capsys.readouterr().out
+    assert said.startswith("labelled 0 of 6 frames: the pose model found no arm with shoulder, "
+                           "elbow and wrist all at --min-confidence 0.5 or more")
+    assert "train_cnn" not in said and "train:" not in said
+
+
+def test_label_from_an_installed_package_says_where_training_lives(person_video,
+                                                                  tmp_path) -> None:
+    """The package as a wheel installs it: imimic_gym/ alone, without training/."""
+    import shutil
+
+    import imimic_gym
+
+    _, video = person_video
+    site = tmp_path / "site-packages"
+    shutil.copytree(Path(imimic_gym.__file__).parent, site / "imimic_gym",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    done = subprocess.run([sys.executable, "-m", "imimic_gym.cli", "label", "--video",
+                           str(video), "--out", "out"], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=300,
+                          env={**os.environ, "PYTHONPATH": str(site)})
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert ("train: training/train_cnn.py comes with the project's source, not with the "
+            "installed package; in a clone of the project's repository run python "
+            "training/train_cnn.py --annotations out/labels.json --images out/images "
+            "--split time") in done.stdout

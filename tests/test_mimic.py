@@ -86,6 +86,20 @@ def test_a_missing_video_is_one_line_from_the_command(tmp_path, capsys) -> None:
     assert "cannot open video" in err and "gone.mp4: no such file" in err
 
 
+def test_a_file_that_is_no_video_is_one_line_without_ffmpegs_own(tmp_path) -> None:
+    """FFmpeg's log lines ("moov atom not found") and OpenCV's warnings stay out of the
+    one-line error (they reach file descriptor 2 directly, hence a subprocess)."""
+    (tmp_path / "notes.mp4").write_text("not a video\n")
+    done = subprocess.run([sys.executable, "-m", "imimic_gym.cli", "mimic", "--video",
+                           str(tmp_path / "notes.mp4"), "--out", str(tmp_path / "out")],
+                          capture_output=True, text=True, timeout=120,
+                          env={**os.environ, "MUJOCO_GL": "egl"})
+    assert done.returncode == 2
+    assert done.stderr.splitlines() == [f"imimic mimic: cannot open video {tmp_path}/notes.mp4: "
+                                        "OpenCV cannot decode it (not a video, or an "
+                                        "unsupported codec)"]
+
+
 def test_more_links_than_don_follows_is_refused() -> None:
     with pytest.raises(SystemExit, match="don follows 1 to 3 moving links; --links 4"):
         main(["mimic", "--video", "x.mp4", "--estimator", "don", "--links", "4"])
@@ -104,6 +118,19 @@ def test_a_cut_run_that_ends_early_counts_the_frames_asked_for(truncated_avi,
                         progress=False)
     assert summary["ended"].startswith(f"footage ended early: {summary['frames']} of the 20 "
                                        "frames asked for")
+
+
+def test_an_intact_file_whose_container_counts_more_frames_ends_cleanly(edit_listed_mp4,
+                                                                        tmp_path,
+                                                                        capsys) -> None:
+    """An edit list drops frames the container counts (30 reported, 24 decode): no
+    "ended early", and the progress bar ends full at the frames that exist."""
+    clip = stream_video(edit_listed_mp4, reference_direction=math.pi / 2)
+    assert len(clip) == 30
+    summary = run_mimic(clip, tmp_path / "out")
+    assert summary["ended"] == "end of footage" and summary["frames"] == 24
+    bar = capsys.readouterr().err.split("\r")[-1]
+    assert "24/24" in bar and "/30" not in bar
 
 
 def test_a_run_cut_to_a_length_says_so(servo_mp4, tmp_path) -> None:

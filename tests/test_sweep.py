@@ -125,4 +125,4 @@ def test_sweep_inputs_that_cannot_work_are_said(tmp_path, capsys, monkeypatch) -
     monkeypatch.setitem(sys.modules, "ray", None)  # as if the extra were not installed
     with pytest.raises(SystemExit):
         main([*base, "--backend", "ray"])
-    assert "pip install 'imimic_gym[ray]'" in capsys.readouterr().err
+    assert "pip install '.[ray]' in a clone of imimic_gym" in capsys.readouterr().err

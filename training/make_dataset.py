@@ -57,7 +57,7 @@ def main() -> None:
                              "default: the shipped dataset's plain variation")
     parser.add_argument("--backend", default="local", choices=BACKENDS,
                         help="render here (default) or one Ray task per clip (pip install "
-                             "'imimic_gym[ray]')")
+                             "'.[ray]' in a clone)")
     parser.add_argument("--address", default=None, metavar="ADDR",
                         help="--backend ray: a cluster (default: the Ray that `ray start` "
                              "runs here, else a new local one)")

@@ -3,6 +3,8 @@
     .venv/bin/python training/train_cnn.py                      # 1 link, the shipped dataset
     .venv/bin/python training/train_cnn.py --links 2 --out imimic_gym/data/checkpoints/cnn_arm2.pt
     .venv/bin/python training/train_cnn.py --annotations my.json --images my_frames/
+    .venv/bin/python training/train_cnn.py --annotations labels_out/labels.json \\
+        --images labels_out/images --split time   # one video: test on its last 30%
     .venv/bin/python training/train_cnn.py --json pcp.json \\
         --eval-only imimic_gym/data/checkpoints/cnn_arm1.pt
 
@@ -70,7 +72,16 @@ class Args:
     shipped imimic_gym/data/annotations/arm<links>_train.json"""
     test_annotations: str | None = None
     """COCO-keypoints JSON to test on; default: the shipped test file, or, when
-    --annotations is given, a seeded 25% of its images"""
+    --annotations is given, a share of its images (--split, --test-fraction)"""
+    split: str = "random"
+    """how --annotations without --test-annotations is split into training and test
+    images: random (a seeded share, for photos or separate clips) or time (the frames of
+    one video, e.g. imimic label's, in order of image id, then file name: the first ones
+    train, the last --test-fraction test, so every test frame comes after the training
+    frames and none is a near-copy of its neighbour in training)"""
+    test_fraction: float | None = None
+    """the share of --annotations' images held out for testing; default: 0.25 for
+    --split random, 0.3 for --split time (train on the first 70% of the video)"""
     images: str | None = None
     """folder of the annotated images (their file_name is relative to it); default: rendered
     images regenerated bit-identically from the annotations' records"""
@@ -103,10 +114,20 @@ class Args:
     """also write the PCP report to this JSON file; default: none"""
 
 
+def open_fraction(text: str) -> float:
+    """An argparse type: a number strictly between 0 and 1."""
+    value = positive(text)
+    if not value < 1:
+        raise argparse.ArgumentTypeError(f"expected a number between 0 and 1, got {text}")
+    return value
+
+
 # Each number option's argparse type: a value that cannot work is refused before any work.
 TYPES = {"links": int, "seed": at_least(0), "cnn_epochs": at_least(0), "epochs": at_least(0),
          "batch_size": at_least(1), "learning_rate": positive, "limit": at_least(0),
-         "threads": at_least(1)}
+         "threads": at_least(1), "test_fraction": open_fraction}
+SPLITS = ("random", "time")
+DEFAULT_TEST_FRACTION = {"random": 0.25, "time": 0.3}
 
 
 def field_docs(cls: type) -> dict[str, str]:
@@ -136,6 +157,13 @@ def parse_args() -> Args:
     args = Args(**vars(parser.parse_args()))
     if args.links not in (1, 2):
         parser.error(f"--links must be 1 or 2, got {args.links}")
+    if args.split not in SPLITS:
+        parser.error(f"--split takes {' or '.join(SPLITS)}, got {args.split!r}")
+    splitting = args.split != "random" or args.test_fraction is not None
+    if splitting and (args.test_annotations or not args.annotations or args.eval_only):
+        parser.error("--split and --test-fraction divide --annotations into training and "
+                     "test images; not with --test-annotations, --eval-only or the shipped "
+                     "dataset")
     if not args.eval_only and args.cnn_epochs == args.epochs == 0:
         parser.error("--cnn-epochs and --epochs are both 0: nothing to train")
     return args
@@ -143,7 +171,8 @@ def parse_args() -> Args:
 
 def load_split(args: Args) -> tuple[list, list]:
     """(train, test) arm annotations, per --annotations / --test-annotations; --annotations
-    without a test file gives a seeded quarter of its images to the test set."""
+    without a test file gives --test-fraction of its images to the test set: a seeded
+    draw (--split random) or its last frames (--split time)."""
     shipped = DEFAULT_ANNOTATIONS / f"arm{args.links}"
     train_path = args.annotations or f"{shipped}_train.json"
     test_path = args.test_annotations or (None if args.annotations else f"{shipped}_test.json")
@@ -155,8 +184,19 @@ def load_split(args: Args) -> tuple[list, list]:
                   "and wrist all labelled); nothing to train or test on", file=sys.stderr)
             sys.exit(2)
     if test is None:
-        order = np.random.default_rng(args.seed).permutation(len(train))
-        cut = len(train) - max(1, len(train) // 4)
+        fraction = args.test_fraction or DEFAULT_TEST_FRACTION[args.split]
+        if len(train) < 2:
+            print(f"train_cnn.py: {train_path} has {len(train)} image with a complete arm; "
+                  "a training and a test set need 2 or more (or give --test-annotations)",
+                  file=sys.stderr)
+            sys.exit(2)
+        held_out = min(len(train) - 1, max(1, int(len(train) * fraction)))
+        if args.split == "time":
+            order = np.array(sorted(range(len(train)), key=lambda i: (train[i].image_id,
+                                                                       train[i].file_name)))
+        else:
+            order = np.random.default_rng(args.seed).permutation(len(train))
+        cut = len(train) - held_out
         train, test = [train[i] for i in order[:cut]], [train[i] for i in order[cut:]]
     return train, test
 

@@ -11,18 +11,21 @@ from pathlib import Path
 from typing import Any
 
 import imimic_gym  # registers the env, sets headless GL; and its __version__
+from imimic_gym._quiet_start import restore_ctrl_c
 from imimic_gym.cli.cache import add_cache
 from imimic_gym.cli.common import (
     CommandError,
+    add_checkpoint,
     at_least,
     check_writable,
+    checkpoint_params,
     estimator_names,
     print_table,
     save_json,
 )
 from imimic_gym.cli.evaluate import add_eval
 from imimic_gym.cli.mimic import add_label, add_mimic
-from imimic_gym.interrupts import CTRL_C, is_ctrl_c, restore_ctrl_c
+from imimic_gym.interrupts import CTRL_C, is_ctrl_c
 
 
 def _demo_estimator(requested: str | None, scenario: str) -> str:
@@ -50,6 +53,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from imimic_gym.rollout import run_episode
 
     check_writable("demo", "--out", args.out, folder=True)
+    params = checkpoint_params("demo", [args.estimator], args.checkpoint)
     out = Path(args.out)
     print(f"imimic demo: scenario {args.scenario}, seed {args.seed}, control {args.control}")
     args.estimator = _demo_estimator(args.estimator, args.scenario)
@@ -67,7 +71,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
         print(f"  estimator: {get_estimator(args.estimator).summary}; controller: PD on its "
               "angles")
         try:
-            env = RegistryObservation(env, args.estimator, keep_frame=False)
+            env = RegistryObservation(env, args.estimator, keep_frame=False, **params)
         except UnsupportedClipError as error:
             raise CommandError(f"imimic demo: {error}") from error
         controller = PDController(env, EstimateTarget(env))
@@ -221,6 +225,7 @@ def build_parser() -> argparse.ArgumentParser:
                            "pose-don: a real person's arm, so not the servo), or the true "
                            "angles (oracle: the control loop's upper bound, no vision); "
                            "default: don for 1 or 2 links, oracle for the others")
+    add_checkpoint(demo)
     demo.add_argument("--out", default="demo_out", help="output folder (default: %(default)s)")
     demo.set_defaults(func=cmd_demo)
 
@@ -266,6 +271,10 @@ def build_parser() -> argparse.ArgumentParser:
     bench.set_defaults(func=cmd_bench)
     add_mimic(sub)
     add_label(sub)
+    for command in sub.choices.values():
+        command.add_argument("--verbose", action="store_true",
+                             help="also show the log lines of native code (MediaPipe's pose "
+                                  "model, OpenCV's FFmpeg) on stderr")
     return parser
 
 
@@ -300,7 +309,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         restore_ctrl_c()  # a Ctrl-C from here on is caught below
         args = build_parser().parse_args(argv)
+        args.argv = list(sys.argv[1:] if argv is None else argv)  # as given, to repeat it
         command = f"imimic {args.command}"
+        if args.verbose:  # read by the pose model and the video reader (estimators.pose_model)
+            os.environ["IMIMIC_NATIVE_LOGS"] = "1"
         return int(args.func(args))
     except CommandError as error:
         print(error, file=sys.stderr)

@@ -154,7 +154,7 @@ def add_backend(parser: argparse.ArgumentParser, task: str) -> None:
     parser.add_argument("--backend", default="local", choices=BACKENDS,
                         help=f"local: this process (default); ray: one Ray task per {task}, "
                              "on a local Ray or the cluster at --address (pip install "
-                             "'imimic_gym[ray]')")
+                             "'.[ray]' in a clone)")
     parser.add_argument("--address", default=None, metavar="ADDR",
                         help="--backend ray: a cluster ('auto', 'ray://host:10001', "
                              "'host:6379'); default: the Ray that `ray start` runs on this "
@@ -164,3 +164,37 @@ def add_backend(parser: argparse.ArgumentParser, task: str) -> None:
 def check_backend(args: argparse.Namespace, command: str) -> None:
     if args.address and args.backend != "ray":
         raise CommandError(f"imimic {command}: --address is the Ray cluster of --backend ray")
+
+
+def add_checkpoint(parser: argparse.ArgumentParser) -> None:
+    """--checkpoint: the CNN's weights (a `train_cnn.py` output)."""
+    parser.add_argument("--checkpoint", default=None, metavar="PATH",
+                        help="the CNN's weights (--estimator cnn): a .pt that training/"
+                             "train_cnn.py wrote, with its .json beside it (default: the "
+                             "shipped one for the number of links followed)")
+
+
+def checkpoint_params(command: str, estimators: list[str | None],
+                      checkpoint: str | None) -> dict[str, str]:
+    """``{"checkpoint": path}`` for the estimator parameters, {} without one. Before any
+    work, refuses a checkpoint for an estimator that takes none (None: the command's
+    default estimator) and a file that cannot be loaded (missing, corrupt, another
+    network), each in one line (`CommandError`)."""
+    if checkpoint is None:
+        return {}
+    from imimic_gym.estimators.registry import ESTIMATORS, get_estimator
+
+    takers = [name for name, entry in ESTIMATORS.items() if "checkpoint" in entry.params]
+    for name in estimators:
+        if name is None or "checkpoint" not in get_estimator(name).params:
+            which = "the default estimator" if name is None else name
+            raise CommandError(f"imimic {command}: --checkpoint is the weights of "
+                               f"--estimator {' or '.join(takers)}; {which} takes none")
+    from imimic_gym.checkpoints import CheckpointError
+    from imimic_gym.estimators.cnn import load_model
+
+    try:
+        load_model(checkpoint)
+    except (OSError, CheckpointError) as error:
+        raise CommandError(f"imimic {command}: --checkpoint: {error}") from error
+    return {"checkpoint": checkpoint}

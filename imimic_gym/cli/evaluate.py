@@ -4,6 +4,7 @@ held-out clips, or estimators on annotated photos; here or as a sweep on Ray."""
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 from collections.abc import Iterable
 from pathlib import Path
@@ -13,10 +14,12 @@ import numpy as np
 from imimic_gym.cli.common import (
     CommandError,
     add_backend,
+    add_checkpoint,
     add_clip_seeds,
     at_least,
     check_backend,
     check_writable,
+    checkpoint_params,
     estimator_names,
     save_json,
 )
@@ -29,12 +32,23 @@ DEFAULTS = {"scenario": ["exp2-servo"], "estimator": ["don"], "modality": "rgb",
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
+    try:
+        return _eval(args)
+    except SweepStopped:
+        return 130
+
+
+def _eval(args: argparse.Namespace) -> int:
     _refuse_ignored(args)
     for name, value in DEFAULTS.items():
         if getattr(args, name) is None:
             setattr(args, name, value)
     _check_outputs(args)
     sweep = args.backend == "ray" or args.results is not None
+    if sweep and args.checkpoint:
+        raise CommandError("imimic eval: --checkpoint runs here; --backend ray and --results "
+                           "run the shipped weights")
+    args.estimator_params = checkpoint_params("eval", args.estimator, args.checkpoint)
     if args.photos or args.images:
         if sweep:
             raise CommandError("imimic eval: --photos runs here; --backend ray and --results "
@@ -81,7 +95,8 @@ def _score_alone(args: argparse.Namespace) -> tuple[list[dict], bool]:
     try:
         for pair in ((s, e) for s in args.scenario for e in args.estimator):
             for seed in _seeds(args):
-                row = evaluate_clip(*pair, seed, args.modality, args.frames)
+                row = evaluate_clip(*pair, seed, args.modality, args.frames,
+                                    args.estimator_params)
                 rows.setdefault(pair, []).append(row)
             _print_estimator_result(result(pair))
     except CTRL_C as error:
@@ -89,7 +104,8 @@ def _score_alone(args: argparse.Namespace) -> tuple[list[dict], bool]:
             raise
         unfinished = [pair for pair in rows if len(rows[pair]) < args.episodes]
         for pair in unfinished:
-            _print_estimator_result(result(pair))
+            _print_estimator_result(result(pair), f"partial: stopped by Ctrl-C, "
+                                                  f"{len(rows[pair])} of {args.episodes} clips")
         return [result(pair) for pair in rows], True
     return [result(pair) for pair in rows], False
 
@@ -122,7 +138,7 @@ def _refuse_ignored(args: argparse.Namespace) -> None:
         ignored = ("scenario", "controller", "paper", "modality", "frames", "out")
     elif args.paper:
         mode = "--paper runs the paper's own scenarios, estimators and controllers"
-        ignored = ("scenario", "estimator", "controller", "modality")
+        ignored = ("scenario", "estimator", "controller", "modality", "checkpoint")
     elif args.controller:
         mode = "--controller runs the tracking suite on the colour video"
         ignored = ("modality",)
@@ -163,8 +179,17 @@ def _seeds(args: argparse.Namespace) -> tuple[int, ...]:
     return tuple(range(args.first_seed, args.first_seed + args.episodes))
 
 
-def _print_estimator_result(result: dict) -> None:
+def _print_estimator_result(result: dict, partial: str = "") -> None:
+    """One row of an estimator's scores; ``partial``: why it covers fewer clips, marked
+    at its end."""
     mean = result["mean"]
+    if "elbow_flexion_rmse_deg" in mean or "coverage" in mean:  # a spatial estimator
+        print(f"{result['scenario']:20s} {result['estimator']:12s} elbow flexion rmse "
+              f"{_shown(mean.get('elbow_flexion_rmse_deg'), 2):>6s} deg, forearm direction "
+              f"{_shown(mean.get('forearm_direction_error_deg'), 2):>6s} deg (median), upper "
+              f"arm {_shown(mean.get('upper_arm_direction_error_deg'), 2):>6s} deg, coverage "
+              f"{mean['coverage']:.2f}", flush=True)
+        return
     occluded = ""
     if "rmse_occluded_deg_prediction_on" in mean:
         occluded = (f"  occluded: {mean['rmse_occluded_deg_prediction_off']:.1f} "
@@ -175,7 +200,7 @@ def _print_estimator_result(result: dict) -> None:
     print(f"{result['scenario']:20s} {result['estimator']:9s} rmse {mean['rmse_deg']:6.2f} "
           f"deg, settled {_shown(mean['rmse_deg_settled'], 2):>6s} deg, lag "
           f"{_shown(mean['lag_frames'], 1):>5s} frames, eta {mean['mean_trust']:.2f}"
-          f"{occluded}{within}", flush=True)
+          f"{occluded}{within}{f' ({partial})' if partial else ''}", flush=True)
 
 
 def _shown(value: float | None, digits: int) -> str:
@@ -185,19 +210,35 @@ def _shown(value: float | None, digits: int) -> str:
 
 def _run_sweep(cells: list, args: argparse.Namespace) -> tuple[list[dict], dict, dict]:
     """Run ``cells`` as a sweep (`sweep.run_sweep`): the results per configuration, the
-    failed cells' errors and each finished cell's row."""
+    failed cells' errors and each finished cell's row. Ctrl-C raises `SweepStopped`,
+    having said how many cells had finished and how to go on."""
     from imimic_gym.backends import BackendError
-    from imimic_gym.sweep import SweepError, run_sweep, summaries
+    from imimic_gym.sweep import SweepError, SweepInterrupted, run_sweep, summaries
 
     try:
         outcome = run_sweep(cells, journal=args.results, resume=args.resume,
                             backend=args.backend, address=args.address)
     except (BackendError, SweepError) as error:
         raise CommandError(f"imimic eval: {error}") from error
+    except SweepInterrupted as stop:
+        finished = f"{len(stop.result.rows)} of {len(cells)} cells had finished"
+        if args.results:
+            again = [*args.argv, *([] if args.resume else ["--resume"])]
+            print(f"imimic eval: stopped by Ctrl-C; {finished}, kept in {args.results}; go "
+                  f"on with:\n  {shlex.join(['imimic', *again])}", file=sys.stderr)
+        else:
+            print(f"imimic eval: stopped by Ctrl-C; {finished}, not kept (--results FILE "
+                  "keeps each cell as it finishes, so that --resume can go on)",
+                  file=sys.stderr)
+        raise SweepStopped from stop
     skipped = len(cells) - len(outcome.computed)
     if skipped:
         print(f"{skipped} of {len(cells)} cells taken from {args.results}")
     return summaries(cells, outcome.rows), outcome.failures, outcome.rows
+
+
+class SweepStopped(Exception):
+    """Ctrl-C stopped a sweep; what was kept is said: the command ends with code 130."""
 
 
 def _report_failures(failed: dict, args: argparse.Namespace) -> int:
@@ -229,7 +270,8 @@ def _cmd_eval_photos(args: argparse.Namespace) -> int:
     results = []
     for estimator in args.estimator:
         try:
-            result = evaluate_photos(args.photos, args.images, estimator)
+            result = evaluate_photos(args.photos, args.images, estimator,
+                                     **args.estimator_params)
         except (ValueError, AnnotationError, FileNotFoundError) as error:
             raise CommandError(f"imimic eval: {error}") from error
         print(f"{estimator:10s} PCP@0.5 upper {_cell(result['pcp_upper'])}, lower "
@@ -277,7 +319,8 @@ def _suite_configs(args: argparse.Namespace) -> list:
                         or (n_links != 1 and controller == "learned")):
                     skipped.append(f"{scenario}/{estimator}/{controller}")
                     continue
-                configs.append(RunConfig(scenario, estimator, controller, seeds, args.frames))
+                configs.append(RunConfig(scenario, estimator, controller, seeds, args.frames,
+                                         tuple(args.estimator_params.items())))
                 if controller == "oracle":
                     break  # the oracle controller ignores the estimate: one run is enough
     if skipped:
@@ -365,6 +408,7 @@ def add_eval(sub: argparse._SubParsersAction, names: list[str]) -> None:
                           choices=estimator_names(),
                           help=f"default: {DEFAULTS['estimator'][0]}; oracle (the true angles) "
                                "only with --controller; not with --paper")
+    add_checkpoint(evaluate)
     evaluate.add_argument("--modality", default=None, choices=("rgb", "depth"),
                           help="estimators alone: the colour video, or the depth video as grey "
                                f"frames (default: {DEFAULTS['modality']})")

@@ -10,8 +10,10 @@ from typing import Any, cast
 
 from imimic_gym.cli.common import (
     CommandError,
+    add_checkpoint,
     at_least,
     check_writable,
+    checkpoint_params,
     estimator_names,
     finite,
     positive,
@@ -66,6 +68,7 @@ def cmd_mimic(args: argparse.Namespace) -> int:
                            f"stream URL (rtsp://...) or a device (/dev/video0), got "
                            f"{args.camera!r}")
     check_writable("mimic", "--out", args.out, folder=True)
+    checkpoint_params("mimic", [args.estimator], args.checkpoint)
     try:
         return _mimic(args)
     except (VideoOpenError, VideoFormatError) as err:
@@ -198,6 +201,8 @@ def _mimic(args: argparse.Namespace) -> int:
     params: dict[str, object] = {"pivot": tuple(args.pivot)} if args.pivot else {}
     if args.arm != "auto":
         params["arm"] = args.arm
+    if args.checkpoint is not None:
+        params["checkpoint"] = args.checkpoint
     summary = run_mimic(clip, args.out, estimator=args.estimator, control=args.control,
                         estimator_params=params, servo=servo,
                         realtime=not live and (args.realtime or (
@@ -229,11 +234,35 @@ def cmd_label(args: argparse.Namespace) -> int:
         return 2
     if summary["ended"] != "end of footage":
         print(f"imimic label: {summary['ended']}", file=sys.stderr)
-    print(f"labelled {summary['labelled']} of {summary['frames']} frames: wrote "
-          f"{summary['labels']} and {summary['images']}/ (train: python training/train_cnn.py "
-          f"--annotations {summary['labels']} --images {summary['images']})")
+    wrote = f"wrote {summary['labels']} and {summary['images']}/"
+    if summary["labelled"]:
+        print(f"labelled {summary['labelled']} of {summary['frames']} frames: {wrote} "
+              f"({_training_hint(summary['labels'], summary['images'])})")
+    else:
+        print(f"labelled 0 of {summary['frames']} frames: the pose model found no arm with "
+              f"shoulder, elbow and wrist all at --min-confidence {args.min_confidence:g} or "
+              f"more; {wrote}, nothing to train on (footage with the person's arm in view, "
+              "or a lower --min-confidence)")
     # Stopped early, the labels are partial: not the success a following command expects.
     return 130 if summary["ended"] == "stopped by Ctrl-C" else 0
+
+
+def _training_hint(labels: str, images: str) -> str:
+    """How to train the CNN on ``labels``: the training script where this package sits in
+    the project's source; from a wheel, which has no training/, where to get it."""
+    import imimic_gym
+
+    options = f"--annotations {labels} --images {images} --split time"
+    script = Path(imimic_gym.__file__).resolve().parents[1] / "training" / "train_cnn.py"
+    if script.is_file():
+        try:
+            shown = script.relative_to(Path.cwd())
+        except ValueError:
+            shown = script
+        return f"train: python {shown} {options}"
+    return ("train: training/train_cnn.py comes with the project's source, not with the "
+            "installed package; in a clone of the project's repository run python "
+            f"training/train_cnn.py {options}")
 
 
 def add_label(sub: argparse._SubParsersAction) -> None:
@@ -245,7 +274,8 @@ def add_label(sub: argparse._SubParsersAction) -> None:
                     "category: shoulder, elbow, wrist; an annotation on each frame where "
                     "all three reach --min-confidence, the others left unlabelled). CVAT and "
                     "Label Studio import it for a person to correct; training/train_cnn.py "
-                    "--annotations --images trains the CNN on it; ImitateVideo-v0("
+                    "--annotations --images --split time (in the project's source, not the "
+                    "installed package) trains the CNN on it; ImitateVideo-v0("
                     "clip=VIDEO, annotations=labels.json) scores on it.",
     )
     label.add_argument("--video", required=True, metavar="FILE",
@@ -334,6 +364,7 @@ def add_mimic(sub: argparse._SubParsersAction) -> None:
     mimic.add_argument("--arm", default="auto", choices=("auto", "left", "right"),
                        help="which of the person's arms to copy (their own left or right; "
                             "default: auto, the arm that moves)")
+    add_checkpoint(mimic)
     mimic.add_argument("--pivot", type=finite, nargs=2, default=None, metavar=("X", "Y"),
                        help="the joint's pixel position if known (default: found by DON)")
     mimic.add_argument("--fps", type=positive, default=None,

@@ -25,7 +25,10 @@ spans the paper's 120-degree servo range centred on it (`DEFAULT_JOINT_RANGE`).
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
+import subprocess
 import time
 from collections import deque
 from collections.abc import Generator, Iterator, Sequence
@@ -75,6 +78,25 @@ def _describe(source: str | int | Path) -> str:
     return str(source)
 
 
+@contextlib.contextmanager
+def _ffmpeg_quiet() -> Iterator[None]:
+    """OpenCV's own warnings off while a capture opens, and FFmpeg's log lines (a damaged
+    file's "Invalid NAL unit size", a non-video's "moov atom not found") off for the
+    process, unless the environment sets IMIMIC_NATIVE_LOGS (`imimic --verbose`): what
+    goes wrong is said in one line by the caller. A user's own OPENCV_FFMPEG_LOGLEVEL
+    wins; OpenCV reads it when its FFmpeg backend first opens a file."""
+    if os.environ.get("IMIMIC_NATIVE_LOGS"):
+        yield
+        return
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
+    level = cv2.utils.logging.getLogLevel()
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+    try:
+        yield
+    finally:
+        cv2.utils.logging.setLogLevel(level)
+
+
 class VideoReader:
     """Frames of a video file, image sequence, camera or stream URL, one at a time.
 
@@ -122,10 +144,12 @@ class VideoReader:
             if not pattern and path.stat().st_size == 0:
                 raise VideoOpenError(f"cannot open video {self.name}: the file is empty")
             backend = cv2.CAP_IMAGES if pattern else cv2.CAP_FFMPEG
-            capture = cv2.VideoCapture(str(path), backend)
+            with _ffmpeg_quiet():
+                capture = cv2.VideoCapture(str(path), backend)
         else:
             index = int(str(self.source)) if str(self.source).isdigit() else str(self.source)
-            capture = cv2.VideoCapture(index)
+            with _ffmpeg_quiet():
+                capture = cv2.VideoCapture(index)
         if not capture.isOpened():
             capture.release()
             reason = ("no camera answers there" if self.live
@@ -181,6 +205,18 @@ class VideoReader:
                 time.sleep(0.05)  # a camera that hiccups gets a moment before it is given up
         return None
 
+    def ended_early(self) -> bool:
+        """After the stream has ended: whether it held fewer frames than the container
+        reports because decoding failed (a truncated or damaged file). A file that
+        ffmpeg (imageio-ffmpeg's) decodes to the end without an error is intact: its
+        container counts frames that an edit list drops (OpenCV and ffmpeg decode fewer).
+        False for a source whose length is unknown (a camera)."""
+        if self.frame_count is None or self.frames_read + self.skipped_frames >= self.frame_count:
+            return False
+        if self.skipped_frames or "%" in Path(str(self.source)).name:
+            return True
+        return not _decodes_cleanly(Path(str(self.source)))
+
     def __iter__(self) -> Generator[np.ndarray, None, None]:
         self.open()
         try:
@@ -205,6 +241,20 @@ class VideoReader:
                 raise VideoFormatError(f"{self.name} has no frames that can be decoded{skipped}")
         finally:
             self.close()
+
+
+def _decodes_cleanly(path: Path, timeout_s: float = 600.0) -> bool:
+    """Whether ffmpeg decodes the first video stream of ``path`` to its end without an
+    error (a decode that outlasts ``timeout_s`` counts as failed)."""
+    import imageio_ffmpeg
+
+    try:
+        done = subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-nostdin", "-v", "error",
+                               "-i", str(path), "-map", "0:v:0", "-f", "null", "-"],
+                              capture_output=True, timeout=timeout_s)
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+    return done.returncode == 0 and not done.stderr.strip()
 
 
 def require_frames(count: int, needed: int, source: str, why: str) -> None:

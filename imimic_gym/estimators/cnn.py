@@ -225,8 +225,10 @@ def load_model(path: str | Path) -> CNNRefiner:
         state = torch.load(path, map_location="cpu", weights_only=True)
     except (RuntimeError, pickle.UnpicklingError, EOFError, zipfile.BadZipFile,
             ValueError) as err:
+        # torch's own text runs to several lines of advice on unpickling: its class says
+        # enough, and the message stays one line.
         raise CheckpointError(f"checkpoint {path} is not a readable torch state_dict "
-                              f"(corrupt or truncated?): {err}") from err
+                              f"(corrupt or truncated? {type(err).__name__})") from err
     model = CNNRefiner(config)
     if not isinstance(state, dict):
         raise CheckpointError(f"checkpoint {path} holds a {type(state).__name__}, "

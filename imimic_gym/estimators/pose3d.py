@@ -7,7 +7,10 @@ by one of three routes (``source``):
   person's lengths refined over the clip, the model's depth order for toward/away,
   One Euro smoothing);
 - ``"depth"``: the keypoints back-projected through the frame's metric depth image (an
-  RGB-D camera), the lift filling keypoints without a depth;
+  RGB-D camera), each arm bone kept to the person's length as the depth measures it
+  (the median over the clip so far of the frames that measured all three bones within
+  0.7-1.4 of an average adult's; the average adult's until there are 5), a bone off by
+  more than a quarter solved on its ray as the lift does;
 - ``"world"``: the model's own 3-D world landmarks, placed with the shoulder where the
   lift puts it (the baseline).
 
@@ -20,6 +23,7 @@ camera, the arm hanging straight down at their side; trust 0). Never NaN.
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Mapping
 from typing import Any
 
@@ -31,15 +35,18 @@ from imimic_gym.spatial.arm_pose import ArmPose
 from imimic_gym.spatial.camera import Intrinsics
 from imimic_gym.spatial.lift import (
     ArmLifter,
+    BoneLengths,
     from_depth,
     from_world_landmarks,
     neutral_pose,
     shoulder_depth,
 )
 
-__all__ = ["SOURCES", "Pose3DEstimator", "arm_keypoints"]
+__all__ = ["DEPTH_LENGTH_FRAMES", "SOURCES", "Pose3DEstimator", "arm_keypoints"]
 
 SOURCES = ("lift", "depth", "world")
+# The depth route measures the person's arm over this many frames before trusting it.
+DEPTH_LENGTH_FRAMES = 5
 
 
 def arm_keypoints(body: BodyKeypoints, side: str) -> list[int]:
@@ -92,6 +99,7 @@ class Pose3DEstimator:
             self.lifter.reset()
         self.last: ArmPose | None = None
         self.reads = 0
+        self.depth_lengths: deque[np.ndarray] = deque(maxlen=3000)  # metres, per frame
 
     def _camera(self, width: int, height: int) -> Intrinsics:
         """The intrinsics for frames of this size (the lifter follows a new size)."""
@@ -132,15 +140,26 @@ class Pose3DEstimator:
             return None
         model_depth = None if body.depth is None else body.depth[rows] * camera.width
         assert self.lifter is not None  # made by _camera
+        if self.source == "depth":
+            assert depth is not None  # checked in update
+            return self._from_depth(side, pixels, confidence, np.asarray(depth, float),
+                                    camera)
         if self.source == "world":
             if body.world is None:
                 return None
             z0 = shoulder_depth(pixels, confidence, camera, self.lifter.prior)
             return from_world_landmarks(side, body.world[rows], pixels, confidence, camera,
                                         depth_of_shoulder=z0)
-        lifted = self.lifter(side, pixels, confidence, model_depth, time_s)
-        if self.source == "lift":
-            return lifted
-        assert depth is not None  # checked in update
-        return from_depth(side, pixels, confidence, np.asarray(depth, dtype=np.float64),
-                          camera, fallback=lifted)
+        return self.lifter(side, pixels, confidence, model_depth, time_s)
+
+    def _from_depth(self, side: str, pixels: np.ndarray, confidence: np.ndarray,
+                    depth: np.ndarray, camera: Intrinsics) -> ArmPose:
+        measured = from_depth(side, pixels, confidence, depth, camera)
+        prior = BoneLengths().arm
+        plausible = ((measured.bone_lengths > 0.7 * prior)
+                     & (measured.bone_lengths < 1.4 * prior)).all()
+        if (measured.confidence[:4] > 0).all() and plausible:
+            self.depth_lengths.append(measured.bone_lengths)
+        lengths = (np.median(np.array(self.depth_lengths), axis=0)
+                   if len(self.depth_lengths) >= DEPTH_LENGTH_FRAMES else prior)
+        return from_depth(side, pixels, confidence, depth, camera, lengths=lengths)

@@ -11,19 +11,23 @@ how it is installed beside our numpy and OpenCV: `docs/decisions/pose-model.md`.
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
 import sys
 import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
 import cv2
 import numpy as np
 
-__all__ = ["KEYPOINTS", "MEDIAPIPE_VERSION", "BodyKeypoints", "PoseModel",
-           "PoseModelMissingError"]
+__all__ = ["KEYPOINTS", "MEDIAPIPE_VERSION", "NATIVE_LOGS", "BodyKeypoints", "PoseModel",
+           "PoseModelMissingError", "native_logs_quiet"]
 
 MEDIAPIPE_VERSION = "0.10.14"
+NATIVE_LOGS = "IMIMIC_NATIVE_LOGS"  # set (to anything but ""): MediaPipe's log lines show
 # Body keypoints we read, the person's own left and right (a person facing the camera
 # has their left side on the image's right).
 KEYPOINTS = ("left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_wrist",
@@ -90,6 +94,27 @@ class BodyKeypoints:
         return bool(self.get("left_shoulder")[0][0] > self.get("right_shoulder")[0][0])
 
 
+@contextlib.contextmanager
+def native_logs_quiet() -> Iterator[None]:
+    """Standard error (file descriptor 2, which MediaPipe's native code writes its log
+    lines to, from its own threads too) goes to the null device while this runs, unless
+    the environment sets IMIMIC_NATIVE_LOGS (`imimic --verbose`). A graph writes its
+    lines as it starts and reads its first frame."""
+    if os.environ.get(NATIVE_LOGS):
+        yield
+        return
+    sys.stderr.flush()
+    kept = os.dup(2)
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, 2)
+        os.close(devnull)
+        yield
+    finally:
+        os.dup2(kept, 2)
+        os.close(kept)
+
+
 def _solution() -> Any:
     """MediaPipe's legacy Pose solution module (imported here only)."""
     try:
@@ -98,8 +123,9 @@ def _solution() -> Any:
         running = f"{sys.version_info.major}.{sys.version_info.minor}"
         raise PoseModelMissingError(
             f"the pose estimator needs MediaPipe {MEDIAPIPE_VERSION}, which has wheels for "
-            f"Python 3.9-3.12 only (this is {running}): pip install 'imimic_gym[pose]' then "
-            f"pip install --no-deps mediapipe=={MEDIAPIPE_VERSION} (make setup does both); "
+            f"Python 3.9-3.12 only (this is {running}): pip install '.[pose]' in a clone of "
+            f"imimic_gym, then pip install --no-deps mediapipe=={MEDIAPIPE_VERSION} (make "
+            f"setup does both); "
             f"{error}") from error
     return pose
 
@@ -169,8 +195,10 @@ class PoseModel:
             got = (f"{frame.shape} {frame.dtype}" if isinstance(frame, np.ndarray)
                    else type(frame).__name__)
             raise ValueError(f"PoseModel takes (H, W, 3) uint8 RGB frames, got {got}")
-        if self._graph is None:
-            self._start()
+        starting = self._graph is None
+        if starting:
+            with native_logs_quiet():
+                self._start()
         if time_s is not None:
             # MediaPipe's timestamps are microseconds; the legacy solution stamps each frame
             # one step after the last, so the first frame (time 0) gets one step. Set the
@@ -192,7 +220,8 @@ class PoseModel:
             # protobuf 4.25 warns of an API MediaPipe 0.10.14 calls on every frame.
             warnings.filterwarnings("ignore", message="SymbolDatabase.GetPrototype",
                                     category=UserWarning)
-            result = self._graph.process(np.ascontiguousarray(frame))
+            with native_logs_quiet() if starting else contextlib.nullcontext():
+                result = self._graph.process(np.ascontiguousarray(frame))
         if result.pose_landmarks is None:
             return None
         marks = result.pose_landmarks.landmark

@@ -1,13 +1,14 @@
-"""Direction retargeting (closed form): a person's upper-arm and forearm directions and
-elbow flexion -> SO-101 joint targets.
+"""Direction retargeting (closed form per arm plane): a person's upper-arm and forearm
+directions -> SO-101 joint targets.
 
 Frames: the person's directions are read in their **arm frame** (rows forward, outward,
 up) and taken into the **robot base frame** (x forward, y left, z up) by a
 `PersonToRobot` mapping. The SO-101's shoulder_lift, elbow_flex and wrist_flex axes are
 parallel, so its upper arm, forearm and hand always lie in one vertical plane, the plane
-turned by shoulder_pan: the robot matches the upper arm's direction and the elbow's
-flexion exactly where its ranges allow, and the forearm's direction only where the
-person's forearm lies in that plane (otherwise the nearer of the two in-plane forearms).
+turned by shoulder_pan. The retargeter picks the plane and the two elevations in it that
+point both segments nearest the person's: the squared angle of the upper arm's error plus
+``forearm_weight`` times the forearm's, within the joint ranges. Where the person's arm
+is a pose the robot can take, both come back exactly.
 
 Angles in rad; joint targets (6,) in `SO101Spec.joint_names` order.
 """
@@ -22,15 +23,16 @@ import numpy as np
 
 from imimic_gym.retarget.mapping import MIRROR, PersonToRobot
 from imimic_gym.robots.so101 import SO101Spec
-from imimic_gym.spatial.arm_pose import ArmPose, angle_between, unit
+from imimic_gym.spatial.arm_pose import ArmPose, unit
 
 __all__ = ["DirectionRetargeter", "robot_arm_directions"]
 
 _PAN, _LIFT, _ELBOW, _WRIST, _ROLL, _GRIP = range(6)
-# Pans tried between the previous pan and each exact one (the continuity trade-off).
-_BLEND_STEPS = 65
-# rad: an upper arm this close to a robot direction counts as reached.
-_REACHED = 1e-9
+# Pans tried over the whole range first (5 degrees apart), then around the best one at
+# each finer spacing in turn (rad), 6 spacings to each side.
+_COARSE_PANS = 45
+_REFINE_SPACINGS = tuple(math.radians(d) for d in (0.5, 0.05))
+_REFINE_HALF_WIDTH = 6
 # A small share of the robot's own bend direction that decides the wrist's sign when the
 # person's elbow is straight (no bend plane of their own).
 _STRAIGHT_ELBOW_TIE = math.sin(math.radians(2.0))
@@ -48,22 +50,33 @@ def robot_arm_directions(spec: SO101Spec, q: np.ndarray, mapping: PersonToRobot 
 
 
 @dataclass(frozen=True)
+class _Arms:
+    """Candidate arms, one per pan (n,) rad: the upper arm's and the forearm's elevations
+    in the pan's vertical plane (n,) rad (the upper arm's from -24 to 176 degrees, past 90
+    back over the top), and their costs (n,)."""
+
+    pans: np.ndarray
+    upper_elevations: np.ndarray
+    fore_elevations: np.ndarray
+    costs: np.ndarray
+
+
+@dataclass(frozen=True)
 class DirectionRetargeter:
     """Person's arm -> SO-101 joint targets, frame by frame.
 
-    Per frame: shoulder_pan and shoulder_lift point the robot's upper arm along the
-    person's (or, where the robot cannot, along the nearest direction it can reach);
-    elbow_flex sets the person's flexion, bending to the side nearer the person's forearm;
-    wrist_flex sets the hand's signed angle to the forearm (positive continuing the
-    elbow's bend); wrist_roll and gripper hold ``wrist_roll`` and ``gripper`` (rad). With
-    a ``previous`` target, each choice also pays ``continuity`` rad of direction error
-    per rad of joint motion, so the targets move continuously: the pan is held where the
-    upper arm points along the pan axis (any pan fits there), and a solution is never
-    swapped for a distant one that fits only slightly better; and no joint moves more
-    than ``max_step`` rad from ``previous``, so where the robot must swing its pan half
-    a turn to follow, it swings over several frames instead of flipping.
-    ``forearm_weight`` is how much the forearm's direction counts beside the upper arm
-    and the flexion (a tie-break: the bend side, and which of two equal shoulders).
+    Per frame: shoulder_pan turns the robot's arm plane, shoulder_lift and elbow_flex set
+    its upper arm's and forearm's elevations in it, so as to minimise
+    ``e_upper^2 + forearm_weight * e_forearm^2`` (the angles, rad, between the robot's
+    segments and the person's) within the joint ranges; wrist_flex sets the hand's
+    signed angle to the forearm (positive continuing the elbow's bend); wrist_roll and
+    gripper hold ``wrist_roll`` and ``gripper`` (rad). With a ``previous`` target, each
+    choice also pays ``continuity`` rad of direction error per rad of joint motion, so the
+    targets move continuously: the pan is held where the arm leaves it free, and a
+    solution is never swapped for a distant one that fits only slightly better; and no
+    joint moves more than ``max_step`` rad from ``previous``, so where the robot must
+    swing its pan half a turn to follow, it swings over several frames instead of
+    flipping.
     """
 
     spec: SO101Spec = field(default_factory=SO101Spec)
@@ -72,7 +85,8 @@ class DirectionRetargeter:
     gripper: float = 0.0
     continuity: float = 0.1
     max_step: float = math.radians(12.0)
-    forearm_weight: float = 0.002
+    forearm_weight: float = 0.5
+    flexion_weight: float = 0.0
 
     def __post_init__(self) -> None:
         for name, index in (("wrist_roll", _ROLL), ("gripper", _GRIP)):
@@ -80,9 +94,10 @@ class DirectionRetargeter:
             if not lo <= getattr(self, name) <= hi:
                 raise ValueError(f"DirectionRetargeter.{name} must be inside its joint range "
                                  f"[{lo}, {hi}] rad, got {getattr(self, name)}")
-        if self.continuity < 0 or self.forearm_weight < 0 or self.max_step <= 0:
-            raise ValueError(f"continuity and forearm_weight must be >= 0 and max_step > 0, "
-                             f"got {self.continuity}, {self.forearm_weight}, {self.max_step}")
+        weights = (self.continuity, self.forearm_weight, self.flexion_weight)
+        if min(weights) < 0 or self.max_step <= 0:
+            raise ValueError(f"continuity, forearm_weight and flexion_weight must be >= 0 and "
+                             f"max_step > 0, got {weights} and {self.max_step}")
 
     @cached_property
     def _zero_angles(self) -> tuple[float, float]:
@@ -94,78 +109,113 @@ class DirectionRetargeter:
         upper_elevation = math.atan2(upper[2], upper[0])
         return upper_elevation, upper_elevation - math.atan2(fore[2], fore[0])
 
+    @cached_property
+    def _elevation_ranges(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        """((lowest, highest) upper-arm elevation, (most back-up, most forward-down) bend
+        of the forearm from the upper arm), rad, from the lift's and elbow's ranges."""
+        upper_zero, fore_zero = self._zero_angles
+        lift_lo, lift_hi = self.spec.joint_ranges[_LIFT]
+        elbow_lo, elbow_hi = self.spec.joint_ranges[_ELBOW]
+        return (upper_zero - lift_hi, upper_zero - lift_lo), (fore_zero + elbow_lo,
+                                                              fore_zero + elbow_hi)
+
     def __call__(self, pose: ArmPose, previous: np.ndarray | None = None) -> np.ndarray:
         """(6,) float64 rad joint targets for ``pose``, inside the joint ranges;
         ``previous``: (6,) rad, the last targets (None at the first frame)."""
-        upper = unit(self.mapping.to_robot(pose.in_arm_frame(pose.upper_arm)))
-        fore = unit(self.mapping.to_robot(pose.in_arm_frame(pose.forearm)))
-        hand = unit(self.mapping.to_robot(pose.in_arm_frame(pose.hand)))
+        upper, fore, hand = unit(self.mapping.to_robot(pose.in_arm_frame(
+            np.stack([pose.upper_arm, pose.forearm, pose.hand]))))
         flexion = pose.elbow_flexion
         last = None if previous is None else self.spec.clip(previous)
 
-        best: tuple[float, np.ndarray] | None = None
-        pans = self._candidate_pans(upper, last)
-        lifts, planes, upper_errors = self._shoulders(upper, pans)
-        for pan, lift, plane, upper_error in zip(pans, lifts, planes, upper_errors,
-                                                 strict=True):
-            shoulder_cost = upper_error ** 2 + self._motion_cost(last, {_PAN: pan, _LIFT: lift})
-            for bend in self._bends(flexion):
-                q, cost = self._arm(pan, lift, plane, bend, flexion, upper, fore, hand, last)
-                total = shoulder_cost + cost
-                if best is None or total < best[0]:
-                    best = (total, q)
-        assert best is not None  # the candidate pans are never empty
-        if last is None:
-            return best[1]
-        return np.clip(best[1], last - self.max_step, last + self.max_step)
-
-    def _candidate_pans(self, upper: np.ndarray, last: np.ndarray | None) -> np.ndarray:
-        """(n,) pans to try: of those in range that turn the arm's plane onto the upper arm
-        (one or two, half a turn apart) and the range's ends (where the nearest reachable
-        direction may lie), the ones that bring the upper arm nearest; with ``last``, also
-        the best blend from the last pan toward each."""
         lo, hi = self.spec.joint_ranges[_PAN]
-        azimuth = math.atan2(upper[1], upper[0])
-        facing = [float(_wrap(np.float64(-azimuth + turn))) for turn in (0.0, math.pi)]
-        tried = np.array([pan for pan in facing if lo <= pan <= hi] + [lo, hi])
-        errors = self._shoulders(upper, tried)[2]
-        best = [float(pan) for pan in tried[errors <= errors.min() + _REACHED]]
-        pans = list(best)
+        best = self._arms(upper, fore, flexion, self._candidate_pans(upper, fore, last), last)
+        for spacing in _REFINE_SPACINGS:
+            pan = best.pans[np.argmin(best.costs)]
+            offsets = spacing * np.arange(-_REFINE_HALF_WIDTH, _REFINE_HALF_WIDTH + 1)
+            around = self._arms(upper, fore, flexion, np.minimum(np.maximum(pan + offsets, lo), hi),
+                                last)
+            if around.costs.min() < best.costs.min():
+                best = around
+        i = int(np.argmin(best.costs))
+        q = self._targets(float(best.pans[i]), float(best.upper_elevations[i]),
+                          float(best.fore_elevations[i]), upper, fore, hand)
+        if last is None:
+            return q
+        return np.clip(q, last - self.max_step, last + self.max_step)
+
+    def _candidate_pans(self, upper: np.ndarray, fore: np.ndarray, last: np.ndarray | None
+                        ) -> np.ndarray:
+        """(n,) pans to try: a grid over the range, those in range that turn the arm's
+        plane onto the upper arm or onto the forearm (each two, half a turn apart), and
+        the last pan."""
+        lo, hi = self.spec.joint_ranges[_PAN]
+        facing = [float(_wrap(np.float64(-math.atan2(d[1], d[0]) + turn)))
+                  for d in (upper, fore) for turn in (0.0, math.pi)]
+        pans = [pan for pan in facing if lo <= pan <= hi]
         if last is not None:
-            for target in best:
-                blend = np.linspace(last[_PAN], target, _BLEND_STEPS)
-                lifts, _, errors = self._shoulders(upper, blend)
-                cost = errors ** 2 + self.continuity ** 2 * ((blend - last[_PAN]) ** 2
-                                                             + (lifts - last[_LIFT]) ** 2)
-                pans.append(float(blend[int(np.argmin(cost))]))
-        return np.array(pans)
+            pans.append(float(last[_PAN]))
+        return np.concatenate([np.linspace(lo, hi, _COARSE_PANS), pans])
 
-    def _shoulders(self, upper: np.ndarray, pans: np.ndarray
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """For pans (n,): the lifts (n,) nearest ``upper`` (clipped into range), the arm
-        planes' horizontal unit directions (n, 3), and the upper arm's remaining errors
-        (n,) rad."""
-        planes = np.stack([np.cos(pans), -np.sin(pans), np.zeros_like(pans)], axis=1)
-        elevations = np.arctan2(upper[2], planes @ upper)
-        upper_zero = self._zero_angles[0]
-        lifts = np.clip(_wrap(upper_zero - elevations), *self.spec.joint_ranges[_LIFT])
-        reached = _in_plane(planes, upper_zero - lifts)
-        return lifts, planes, np.asarray(angle_between(reached, upper))
+    def _arms(self, upper: np.ndarray, fore: np.ndarray, flexion: float, pans: np.ndarray,
+              last: np.ndarray | None) -> _Arms:
+        """For each pan, the best upper-arm elevation and bend in its plane.
 
-    def _arm(self, pan: float, lift: float, plane: np.ndarray, bend: float, flexion: float,
-             upper: np.ndarray, fore: np.ndarray, hand: np.ndarray, last: np.ndarray | None
-             ) -> tuple[np.ndarray, float]:
-        """Targets for one shoulder and one bend side (``bend`` = +flexion bends the
-        forearm forward-down in the plane, -flexion back-up), and their cost."""
+        With both direction errors split into an out-of-plane part (fixed by the pan) and
+        an in-plane part, the cost is near a quadratic in the upper arm's elevation ``a``
+        and the bend ``b``: ``a - a_upper`` and ``a - b - a_fore`` each weighed by its
+        curvature, and ``b -+ flexion`` for the bend to either side. Its optimum over the
+        box of the lift's and elbow's ranges is the free one or lies on an edge; for
+        each side the five are tried and priced by the exact cost."""
+        (a_lo, a_hi), (b_lo, b_hi) = self._elevation_ranges
+        cos_pan, sin_pan = np.cos(pans), np.sin(pans)
+        upper_across = cos_pan * upper[0] - sin_pan * upper[1]  # along the plane's horizontal
+        fore_across = cos_pan * fore[0] - sin_pan * fore[1]
+        # The upper arm's in-plane elevation, wrapped nearest the reachable interval; the
+        # bend to the forearm's, wrapped nearest the elbow's interval.
+        a_upper = _wrap_near(np.arctan2(upper[2], upper_across), 0.5 * (a_lo + a_hi))
+        a_fore = a_upper - _wrap_near(a_upper - np.arctan2(fore[2], fore_across),
+                                      0.5 * (b_lo + b_hi))
+        k_upper = _curvature(upper_across, upper[2])
+        k_fore = self.forearm_weight * _curvature(fore_across, fore[2])
+        k_flex = self.flexion_weight
+        columns = []
+        for bend in (flexion, -flexion):
+            # Free optimum (the gradient's two equations solved), then each edge's.
+            free_shift = k_fore * (a_upper - a_fore - bend) / (
+                k_upper * (k_flex + k_fore) + k_fore * k_flex + 1e-12)
+            columns.append((a_upper - k_flex * free_shift, bend + k_upper * free_shift))
+            for a in (a_lo, a_hi):
+                columns.append((np.full_like(pans, a), (k_fore * (a - a_fore) + k_flex * bend)
+                                / (k_fore + k_flex + 1e-12)))
+            for b in (b_lo, b_hi):
+                columns.append(((k_upper * a_upper + k_fore * (b + a_fore))
+                                / (k_upper + k_fore + 1e-12), np.full_like(pans, b)))
+        elevations = np.minimum(np.maximum(np.stack([a for a, _ in columns], axis=1), a_lo),
+                                a_hi)
+        bends = np.minimum(np.maximum(np.stack([b for _, b in columns], axis=1), b_lo), b_hi)
+        fore_elevations = elevations - bends
+        costs = (_plane_angle(upper_across, upper[2], elevations) ** 2
+                 + self.forearm_weight * _plane_angle(fore_across, fore[2], fore_elevations) ** 2
+                 + k_flex * (np.abs(bends) - flexion) ** 2)
+        if last is not None:
+            upper_zero, fore_zero = self._zero_angles
+            costs += self.continuity ** 2 * (
+                (pans - last[_PAN])[:, None] ** 2 + (upper_zero - elevations - last[_LIFT]) ** 2
+                + (bends - fore_zero - last[_ELBOW]) ** 2)
+        rows = np.arange(len(pans))
+        pick = np.argmin(costs, axis=1)
+        return _Arms(pans, elevations[rows, pick], fore_elevations[rows, pick],
+                     costs[rows, pick])
+
+    def _targets(self, pan: float, upper_elevation: float,
+                 fore_elevation: float, upper: np.ndarray, fore: np.ndarray, hand: np.ndarray
+                 ) -> np.ndarray:
+        """(6,) joint targets for one arm in its plane; the wrist turns the hand by its
+        angle to the person's forearm, continuing the robot's bend where the person's
+        hand continues theirs."""
         upper_zero, fore_zero = self._zero_angles
-        elbow = float(np.clip(bend - fore_zero, *self.spec.joint_ranges[_ELBOW]))
-        robot_bend = fore_zero + elbow
-        fore_elevation = upper_zero - lift - robot_bend
-        robot_fore = _in_plane(plane, fore_elevation)
-        fore_error = float(angle_between(fore, robot_fore))
-        cost = ((abs(robot_bend) - flexion) ** 2 + self.forearm_weight * fore_error ** 2
-                + self._motion_cost(last, {_ELBOW: elbow}))
-
+        plane = np.array([math.cos(pan), -math.sin(pan), 0.0])
+        robot_bend = upper_elevation - fore_elevation
         side = 1.0 if robot_bend >= 0 else -1.0
         # The robot's positive wrist turns the hand toward lower elevation in the plane.
         robot_down = _in_plane(plane, fore_elevation - math.pi / 2)
@@ -173,29 +223,41 @@ class DirectionRetargeter:
         tie = side * (robot_down - float(robot_down @ fore) * fore)
         continue_bend = unit(own_bend + _STRAIGHT_ELBOW_TIE * tie)
         wrist = side * math.atan2(float(hand @ continue_bend), float(hand @ fore))
-
-        q = np.array([pan, lift, elbow, wrist, self.wrist_roll, self.gripper])
-        return self.spec.clip(q), cost
-
-    def _bends(self, flexion: float) -> list[float]:
-        """Bend sides to try: forward-down (+flexion) always; back-up (-flexion) only where
-        the elbow reaches it, so the flexion itself is never traded for the forearm."""
-        lo = self.spec.joint_ranges[_ELBOW][0]
-        return [flexion, -flexion] if -flexion - self._zero_angles[1] >= lo else [flexion]
-
-    def _motion_cost(self, last: np.ndarray | None, joints: dict[int, float]) -> float:
-        if last is None:
-            return 0.0
-        return self.continuity ** 2 * sum((value - last[i]) ** 2 for i, value in joints.items())
+        q = np.array([pan, upper_zero - upper_elevation, robot_bend - fore_zero, wrist,
+                      self.wrist_roll, self.gripper])
+        return self.spec.clip(q)
 
 
-def _in_plane(plane: np.ndarray, elevation: np.ndarray | float) -> np.ndarray:
-    """(..., 3) unit directions at ``elevation`` (...,) rad above ``plane``'s (..., 3)
-    horizontal direction, in the vertical plane through it (past pi/2 back over the top)."""
-    elevation = np.asarray(elevation, dtype=np.float64)[..., None]
-    return np.cos(elevation) * plane + np.sin(elevation) * np.array([0.0, 0.0, 1.0])
+def _plane_angle(across: np.ndarray, up: float, elevations: np.ndarray) -> np.ndarray:
+    """(n, k) rad: the angles between a unit direction and the directions at
+    ``elevations`` (n, k) rad in n vertical planes; ``across`` (n,) is the direction's
+    component along each plane's horizontal, ``up`` its vertical one."""
+    cosine = np.cos(elevations) * across[:, None] + np.sin(elevations) * up
+    return np.arccos(np.minimum(np.maximum(cosine, -1.0), 1.0))
+
+
+def _curvature(across: np.ndarray, up: float) -> np.ndarray:
+    """(n,) half the second derivative of the squared angle between a unit direction and
+    a direction turning in n vertical planes, at its nearest: o / tan(o) for the
+    out-of-plane angle o (1 in the plane, 0 across it); ``across`` and ``up`` as in
+    `_plane_angle`."""
+    in_plane = np.minimum(np.sqrt(across ** 2 + up ** 2), 1.0)
+    out_of_plane = np.arccos(in_plane)
+    return np.where(out_of_plane > 1e-6,
+                    out_of_plane * in_plane / np.maximum(np.sin(out_of_plane), 1e-12), 1.0)
+
+
+def _in_plane(plane: np.ndarray, elevation: float) -> np.ndarray:
+    """(3,) unit direction at ``elevation`` rad above ``plane``'s (3,) horizontal
+    direction, in the vertical plane through it (past pi/2 back over the top)."""
+    return math.cos(elevation) * plane + math.sin(elevation) * np.array([0.0, 0.0, 1.0])
 
 
 def _wrap(angle: np.ndarray) -> np.ndarray:
     """Angles rad wrapped into (-pi, pi]."""
     return np.pi - np.mod(np.pi - angle, 2 * np.pi)
+
+
+def _wrap_near(angle: np.ndarray, centre: float) -> np.ndarray:
+    """Angles rad wrapped into (centre - pi, centre + pi]."""
+    return centre + _wrap(angle - centre)

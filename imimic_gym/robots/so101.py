@@ -68,7 +68,7 @@ _MJCF = """<mujoco model="so101">
     <geom name="backdrop" type="box" pos="-0.35 0 0.5" size="0.005 1.2 0.6" rgba="0.78 0.8 0.84 1"/>
     <!-- In front of the robot, facing it: the robot's left is the picture's right, as a
          person facing the camera shows their left arm on the right (the mirror mapping). -->
-    <camera name="robot" pos="0.72 0 0.33" xyaxes="0 1 0 -0.169 0 0.986" fovy="50"/>
+    <camera name="robot" pos="0.95 0 0.36" xyaxes="0 1 0 -0.165 0 0.986" fovy="52"/>
     <body name="base">
       <inertial pos="0.0137 0 0.0335" mass="0.147" diaginertia="1.1e-4 1.4e-4 1.3e-4"/>
       <geom type="box" pos="0.02 0 0.024" size="0.05 0.045 0.024"/>

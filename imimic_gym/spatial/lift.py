@@ -28,14 +28,14 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from imimic_gym.spatial.arm_pose import ARM_POINTS, ArmPose, unit
+from imimic_gym.spatial.arm_pose import ARM_POINTS, ArmPose, angle_between, unit
 from imimic_gym.spatial.camera import Intrinsics
 from imimic_gym.spatial.smoothing import OneEuroFilter, OneEuroSettings
 
-__all__ = ["DEFAULT_DEPTH", "KEYPOINT_NOISE", "LENGTH_QUANTILE", "LIMB_RADIUS", "ONE_EURO",
-           "SIGN_MARGIN", "SIGN_THRESHOLD", "ArmLifter", "BoneLengthEstimator",
-           "BoneLengths", "from_depth", "from_world_landmarks", "lift_arm", "neutral_pose",
-           "out_of_plane", "shoulder_depth"]
+__all__ = ["DEFAULT_DEPTH", "FLIP_PATIENCE", "KEYPOINT_NOISE", "LENGTH_QUANTILE", "LIMB_RADIUS",
+           "MAX_TURN_RATE", "ONE_EURO", "SIGN_MARGIN", "SIGN_THRESHOLD", "ArmLifter",
+           "BoneLengthEstimator", "BoneLengths", "from_depth", "from_world_landmarks",
+           "lift_arm", "neutral_pose", "out_of_plane", "shoulder_depth"]
 
 _S, _E, _W, _H, _OS, _HIP, _OHIP = range(len(ARM_POINTS))
 # Where the shoulders' depth cannot be told (shoulders on one pixel): a person at arm's
@@ -46,14 +46,24 @@ _DEPTH_RANGE = (0.2, 50.0)  # metres: a shoulder depth is kept within this
 # half gap of their middle, its depth order does not pick the root; continuity with the
 # previous frame does; so too within `SIGN_MARGIN` metres (the model's own depth noise).
 SIGN_THRESHOLD = 0.25
-SIGN_MARGIN = 0.05
+SIGN_MARGIN = 0.0
 # The lift's smoothing of the 3-D points (`ArmLifter`).
 ONE_EURO = OneEuroSettings(min_cutoff=5.0, beta=5.0)
 # The pose model's noise on an arm bone's 2-D length, as a share of the length
 # (`out_of_plane`; `ArmLifter`'s).
 KEYPOINT_NOISE = 0.04
+# An arm bone turns at most this fast (rad/s; `ArmLifter`): a turn the model's depth
+# order would make faster is its depth flipping, for as long as `FLIP_PATIENCE` (s).
+MAX_TURN_RATE = math.radians(900.0)
+FLIP_PATIENCE = 0.3
+# The turn limit holds a bone whose depth extent was over this share of its length: one
+# near the image plane may take either root (the model's noise there is no flip).
+_LOCKED_SHARE = 0.5
 # `BoneLengthEstimator`'s quantile of the in-plane bounds.
 LENGTH_QUANTILE = 0.8
+# A shoulder this far (metres) behind the elbow's, other shoulder's and hips' median
+# depth is the wall behind it (`from_depth`).
+_BEHIND = 0.3
 # Limb radii (metres): a depth camera sees a limb's surface, this far in front of its axis.
 LIMB_RADIUS = np.array([0.05, 0.04, 0.03, 0.015, 0.05, 0.08, 0.08])
 _HIP_WIDTH_RATIO = 0.7  # the hips' keypoints' distance / the shoulders'
@@ -142,12 +152,13 @@ def shoulder_depth(pixels: np.ndarray, confidence: np.ndarray, intrinsics: Intri
 @dataclass(frozen=True)
 class _Bone:
     """A bone's far end as solved: the point, the in-plane lower bound on its length
-    (metres: the distance from its start to the far end's ray) and whether the ray
-    missed the length's sphere."""
+    (metres: the distance from its start to the far end's ray), whether the ray missed
+    the length's sphere, and whether the turn limit overruled the model's depth order."""
 
     end: np.ndarray
     lower_bound: float
     missed: bool
+    overruled: bool = False
 
 
 _OUT_OF_PLANE_GRID = np.linspace(0.0, 1.0, 201)
@@ -173,14 +184,17 @@ def out_of_plane(ratio: float, noise: float) -> float:
 
 def _solve_bone(start: np.ndarray, ray: np.ndarray, length: float,
                 model_delta: float | None, previous: np.ndarray | None,
-                sign_threshold: float, noise: float = 0.0, sign_margin: float = 0.0
-                ) -> _Bone:
+                sign_threshold: float, noise: float = 0.0, sign_margin: float = 0.0,
+                max_turn: float = math.inf) -> _Bone:
     """The point t * ``ray`` (t > 0) at ``length`` from ``start``. ``model_delta``: the
     pose model's depth of the far end minus the start's, metres (None: unknown);
     ``previous``: the bone's unit direction in the previous frame (None: none);
     ``noise``: the bone's in-plane ratio's noise (`out_of_plane`; 0: Taylor's exact
     solution, the far end at exactly ``length``); ``sign_threshold`` and ``sign_margin``:
-    see `SIGN_THRESHOLD` and `SIGN_MARGIN`."""
+    see `SIGN_THRESHOLD` and `SIGN_MARGIN`; ``max_turn``: rad, where ``previous`` points
+    well out of the image plane (`_LOCKED_SHARE`), a root the model picks that turns the
+    bone farther than this from it gives way to the other root if that one turns it
+    less."""
     a = float(ray @ ray)
     middle = float(ray @ start) / a  # t of the ray's point nearest the start
     lower_bound = math.sqrt(max(float(start @ start) - a * middle * middle, 0.0))
@@ -204,8 +218,12 @@ def _solve_bone(start: np.ndarray, ray: np.ndarray, length: float,
     unsure = evidence is None or abs(evidence) < max(sign_threshold * half_gap, sign_margin)
     if unsure and previous is not None:
         choice = max(range(2), key=lambda i: float(unit(roots[i] - start) @ previous))
-    else:
-        choice = int(evidence is not None and evidence > 0.0)
+        return _Bone(roots[choice], lower_bound, missed)
+    choice = int(evidence is not None and evidence > 0.0)
+    if previous is not None and math.isfinite(max_turn) and abs(previous[2]) > _LOCKED_SHARE:
+        turns = [float(angle_between(root - start, previous)) for root in roots]
+        if turns[choice] > max_turn and turns[1 - choice] < turns[choice]:
+            return _Bone(roots[1 - choice], lower_bound, missed, overruled=True)
     return _Bone(roots[choice], lower_bound, missed)
 
 
@@ -213,7 +231,7 @@ def lift_arm(side: str, pixels: np.ndarray, confidence: np.ndarray,
              depth: np.ndarray | None, intrinsics: Intrinsics, lengths: BoneLengths,
              depth_of_shoulder: float | None = None, previous: ArmPose | None = None,
              sign_threshold: float = SIGN_THRESHOLD, sign_margin: float = 0.0,
-             keypoint_noise: float = 0.0) -> ArmPose:
+             keypoint_noise: float = 0.0, max_turn: float = math.inf) -> ArmPose:
     """One frame's bone-length lift (module docstring).
 
     Args:
@@ -230,20 +248,28 @@ def lift_arm(side: str, pixels: np.ndarray, confidence: np.ndarray,
         keypoint_noise: the noise of an arm bone's measured in-plane length, as a share
             of its length (`out_of_plane`); 0: Taylor's exact solution (each far end at
             exactly its bone's length).
+        max_turn: rad; where an arm bone pointed well out of the image plane in
+            ``previous`` and the model's depth order would turn it farther than this
+            from there while the other root turns it less, the other root (the model's
+            depth flips for a few frames now and then, while an arm cannot swing
+            through half a turn between two frames); inf: no limit.
 
     Returns:
         The `ArmPose` (camera frame), ``trust`` the least confidence of shoulder, elbow
         and wrist. Finite for any finite input.
     """
     return _lift(side, pixels, confidence, depth, intrinsics, lengths, depth_of_shoulder,
-                 previous, sign_threshold, sign_margin, keypoint_noise)[0]
+                 previous, sign_threshold, sign_margin, keypoint_noise,
+                 np.full(len(_ARM_BONES), max_turn))[0]
 
 
 def _lift(side: str, pixels: np.ndarray, confidence: np.ndarray, depth: np.ndarray | None,
           intrinsics: Intrinsics, lengths: BoneLengths, depth_of_shoulder: float | None,
           previous: ArmPose | None, sign_threshold: float, sign_margin: float,
-          keypoint_noise: float) -> tuple[ArmPose, np.ndarray]:
-    """`lift_arm`, and the (3,) in-plane lower bounds of the arm's bones (metres)."""
+          keypoint_noise: float, max_turn: np.ndarray
+          ) -> tuple[ArmPose, np.ndarray, np.ndarray]:
+    """`lift_arm` (``max_turn`` one per arm bone), the (3,) in-plane lower bounds of the
+    arm's bones (metres) and (3,) bool: which of them the turn limit overruled."""
     pixels, confidence = _check_inputs(side, pixels, confidence)
     if depth is not None:
         depth = np.asarray(depth, dtype=np.float64)
@@ -266,22 +292,25 @@ def _lift(side: str, pixels: np.ndarray, confidence: np.ndarray, depth: np.ndarr
         direction = unit(previous.points[end] - previous.points[start])
         return direction if direction.any() else None
 
-    def solve(start: int, end: int, length: float, noise: float = 0.0) -> _Bone:
+    def solve(start: int, end: int, length: float, noise: float = 0.0,
+              turn: float = math.inf) -> _Bone:
         bone = _solve_bone(points[start], rays[end], length, model_delta(start, end),
                            previous_direction(start, end), sign_threshold, noise,
-                           sign_margin)
+                           sign_margin, turn)
         points[end] = bone.end
         return bone
 
     solve(_S, _OS, lengths.shoulder_width)
-    bounds = np.array([solve(start, end, getattr(lengths, name), keypoint_noise).lower_bound
-                       for start, end, name in _ARM_BONES])
+    bones = [solve(start, end, getattr(lengths, name), keypoint_noise, float(turn))
+             for (start, end, name), turn in zip(_ARM_BONES, max_turn, strict=True)]
     side_to_hip = math.hypot(lengths.torso,
                              0.5 * lengths.shoulder_width * (1.0 - _HIP_WIDTH_RATIO))
     solve(_S, _HIP, side_to_hip)
     solve(_OS, _OHIP, side_to_hip)
     trust = float(confidence[[_S, _E, _W]].min())
-    return ArmPose(side, points, confidence, pixels, trust=trust), bounds
+    return (ArmPose(side, points, confidence, pixels, trust=trust),
+            np.array([bone.lower_bound for bone in bones]),
+            np.array([bone.overruled for bone in bones]))
 
 
 class BoneLengthEstimator:
@@ -344,6 +373,10 @@ class ArmLifter:
         sign_margin: see `SIGN_MARGIN`.
         keypoint_noise: see `lift_arm` (`KEYPOINT_NOISE`).
         length_quantile: `BoneLengthEstimator`'s quantile.
+        max_turn_rate: rad/s, `lift_arm`'s ``max_turn`` per second since the last
+            reading (`MAX_TURN_RATE`; inf: no limit).
+        flip_patience: s; a bone whose model depth order has been overruled this long
+            takes it (a wrong first choice is not kept for ever; `FLIP_PATIENCE`).
     """
 
     def __init__(self, intrinsics: Intrinsics, fps: float = 30.0,
@@ -352,7 +385,9 @@ class ArmLifter:
                  pixel_smoothing: OneEuroSettings | None = None,
                  sign_threshold: float = SIGN_THRESHOLD, sign_margin: float = SIGN_MARGIN,
                  keypoint_noise: float = KEYPOINT_NOISE,
-                 length_quantile: float = LENGTH_QUANTILE) -> None:
+                 length_quantile: float = LENGTH_QUANTILE,
+                 max_turn_rate: float = MAX_TURN_RATE,
+                 flip_patience: float = FLIP_PATIENCE) -> None:
         if not (math.isfinite(fps) and fps > 0):
             raise ValueError(f"fps must be a positive number, got {fps!r}")
         self.intrinsics, self.fps, self.refine = intrinsics, float(fps), refine
@@ -360,6 +395,7 @@ class ArmLifter:
         self.smoothing, self.pixel_smoothing = smoothing, pixel_smoothing
         self.sign_threshold, self.sign_margin = sign_threshold, sign_margin
         self.keypoint_noise = keypoint_noise
+        self.max_turn_rate, self.flip_patience = max_turn_rate, flip_patience
         self.estimators = {side: BoneLengthEstimator(self.prior, quantile=length_quantile)
                            for side in ("left", "right")}
         self.filter = OneEuroFilter(smoothing)
@@ -374,6 +410,7 @@ class ArmLifter:
         self.previous: ArmPose | None = None
         self.time: float | None = None
         self.calls = 0
+        self.overruled_for = np.zeros(len(_ARM_BONES))  # s, per arm bone
 
     def lengths(self, side: str) -> BoneLengths:
         """The lengths in use for the arm ``side``."""
@@ -393,12 +430,17 @@ class ArmLifter:
         if previous is None or not dt > 0:  # another arm, or time went back: start afresh
             self.filter.reset()
             self.pixel_filter.reset()
+            self.overruled_for[:] = 0.0
             dt = 1.0 / self.fps
+        max_turn = np.where(self.overruled_for >= self.flip_patience - 1e-9, math.inf,
+                            self.max_turn_rate * dt)
         smoothed = (self.pixel_filter.filter(pixels, dt) if self.pixel_smoothing is not None
                     else pixels)
-        pose, bounds = _lift(side, smoothed, confidence, depth, self.intrinsics,
-                             self.lengths(side), None, previous, self.sign_threshold,
-                             self.sign_margin, self.keypoint_noise)
+        pose, bounds, overruled = _lift(side, smoothed, confidence, depth, self.intrinsics,
+                                        self.lengths(side), None, previous,
+                                        self.sign_threshold, self.sign_margin,
+                                        self.keypoint_noise, max_turn)
+        self.overruled_for = np.where(overruled, self.overruled_for + dt, 0.0)
         self.estimators[side].observe(bounds)
         points = (self.filter.filter(pose.points, dt) if self.smoothing is not None
                   else pose.points)
@@ -408,8 +450,9 @@ class ArmLifter:
 
 
 def from_depth(side: str, pixels: np.ndarray, confidence: np.ndarray,
-               depth_image: np.ndarray, intrinsics: Intrinsics, window: int = 2,
-               fallback: ArmPose | None = None) -> ArmPose:
+               depth_image: np.ndarray, intrinsics: Intrinsics, window: int | None = None,
+               fallback: ArmPose | None = None, lengths: np.ndarray | None = None,
+               length_tolerance: float = 0.25) -> ArmPose:
     """An arm back-projected through a metric depth image.
 
     Args:
@@ -417,11 +460,22 @@ def from_depth(side: str, pixels: np.ndarray, confidence: np.ndarray,
         depth_image: (H, W) float metres along the camera's axis, the intrinsics' size;
             0 or not finite where the camera measured nothing.
         intrinsics: the depth image's camera (registered to the colour image).
-        window: each keypoint's depth is the median of the valid depths within this many
-            pixels of it (a (2 window + 1)^2 square), plus its limb's radius
-            (`LIMB_RADIUS`: the camera sees the limb's surface, not its axis).
+        window: each keypoint's depth is the nearer quarter's edge (the 25th
+            percentile) of the valid depths within this many pixels of it (a
+            (2 window + 1)^2 square; None: 1% of the image's diagonal, at least 2), plus
+            its limb's radius (`LIMB_RADIUS`: the camera sees the limb's surface, not its
+            axis). The nearer quarter, not the median: a keypoint on a limb's or the
+            body's outline has the wall behind half its window. A shoulder more than
+            `_BEHIND` m behind the other body keypoints' median depth (the window missed
+            the body) takes that median.
         fallback: where a keypoint has no valid depth, this pose's point (None: the
             median depth of the keypoints found, confidence 0; `DEFAULT_DEPTH` if none).
+        lengths: (3,) metres of upper arm, forearm and hand, or None. Given, an arm bone
+            whose far end has no depth, or whose back-projected length is off by more
+            than ``length_tolerance`` of it (the window saw something else: the hand in
+            front of the elbow, the wall behind a thin wrist), is solved as the lift
+            solves it: on its far end's ray at its length from its start, toward or away
+            as the measured depth says (`lift_arm`).
 
     Returns:
         The `ArmPose`, ``trust`` the least confidence of shoulder, elbow and wrist.
@@ -432,6 +486,8 @@ def from_depth(side: str, pixels: np.ndarray, confidence: np.ndarray,
         raise ValueError(f"from_depth: the depth image is {depth_image.shape}, the "
                          f"intrinsics are for ({intrinsics.height}, {intrinsics.width})")
     h, w = depth_image.shape
+    if window is None:
+        window = max(2, round(0.01 * math.hypot(w, h)))
     depths = np.full(len(ARM_POINTS), np.nan)
     for i, (x, y) in enumerate(pixels):
         col, row = round(x), round(y)
@@ -440,7 +496,11 @@ def from_depth(side: str, pixels: np.ndarray, confidence: np.ndarray,
         valid = patch[np.isfinite(patch) & (patch > 0)] if 0 <= row < h and 0 <= col < w \
             else np.empty(0)
         if valid.size:
-            depths[i] = float(np.median(valid)) + LIMB_RADIUS[i]
+            depths[i] = float(np.percentile(valid, 25)) + LIMB_RADIUS[i]
+    body = depths[[_E, _OS, _HIP, _OHIP]]
+    body = body[np.isfinite(body)]
+    if body.size and np.isfinite(depths[_S]) and depths[_S] > np.median(body) + _BEHIND:
+        depths[_S] = float(np.median(body))
     found = np.isfinite(depths)
     points = intrinsics.back_project(pixels, np.where(found, depths, 1.0))
     confidence = confidence.copy()
@@ -452,6 +512,17 @@ def from_depth(side: str, pixels: np.ndarray, confidence: np.ndarray,
                                     float(np.median(depths[found])) if found.any()
                                     else DEFAULT_DEPTH))
         confidence[~found] = 0.0
+    if lengths is not None:
+        rays = intrinsics.rays(pixels)
+        for (start, end, _), length in zip(_ARM_BONES, np.asarray(lengths, float),
+                                           strict=True):
+            measured = float(np.linalg.norm(points[end] - points[start]))
+            if found[end] and abs(measured - length) <= length_tolerance * length:
+                continue
+            delta = float(depths[end] - points[start, 2]) if found[end] else None
+            points[end] = _solve_bone(points[start], rays[end], length, delta, None,
+                                      0.0).end
+            confidence[end] = confidence[end] if found[end] else 0.0
     trust = float(confidence[[_S, _E, _W]].min())
     return ArmPose(side, points, confidence, pixels, trust=trust)
 

@@ -40,7 +40,8 @@ def estimator_context(env: gym.Env) -> EstimatorContext:
 
 
 def draw_estimate(picture: np.ndarray, estimate: Estimate,
-                  parents: tuple[int, ...] | None = None, scale: float = 1.0) -> np.ndarray:
+                  parents: tuple[int, ...] | None = None, scale: float = 1.0,
+                  caption: str | None = None) -> np.ndarray:
     """A copy of ``picture`` (H, W', 3) uint8 RGB with ``estimate`` drawn on it: its
     keypoints (input pixels, (x, y): the root pivot, then each link's tip) joined as links
     in yellow, a dot at each joint, and a line of text with the angles (deg) and eta;
@@ -49,7 +50,8 @@ def draw_estimate(picture: np.ndarray, estimate: Estimate,
     ``parents``: each link's parent link (-1: the root pivot), as `ArmSpec.link_parents`;
     None for a chain. A link is drawn from its parent's tip, so the hand's thumb and index
     finger both start at the wrist. ``scale``: picture pixels per input pixel (a preview
-    drawn smaller than the frames the estimator read)."""
+    drawn smaller than the frames the estimator read). ``caption``: the line of text
+    instead of the angles and eta (a spatial estimator's reading, say)."""
     import cv2
 
     out = picture.copy()
@@ -66,7 +68,7 @@ def draw_estimate(picture: np.ndarray, estimate: Estimate,
         for joint in {0, *(parent + 1 for parent in links[:n] if parent >= 0)}:
             cv2.circle(out, points[joint], dot, (255, 220, 0), -1, cv2.LINE_AA)
     angles = " ".join(f"{np.degrees(q):+.0f}" for q in estimate.angles)
-    text = f"estimate {angles} deg  eta {estimate.trust:.2f}"
+    text = caption or f"estimate {angles} deg  eta {estimate.trust:.2f}"
     colour = (0, 230, 255) if estimate.predicted else (255, 220, 0)
     origin, font = (round(6 * size), round(16 * size)), 0.45 * size
     for ink, width in (((0, 0, 0), round(3 * size)), (colour, max(1, round(size)))):
@@ -134,8 +136,12 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
         if picture is None or self.last_estimate is None:
             return picture
         # A preview drawn smaller than the frames (render_height) scales the keypoints.
-        return draw_estimate(picture, self.last_estimate, self._parents,
-                             scale=picture.shape[0] / self._frame_height)
+        caption = getattr(self.estimator, "caption", None)  # an estimator may say it
+        picture = draw_estimate(picture, self.last_estimate, self._parents,
+                                scale=picture.shape[0] / self._frame_height,
+                                caption=caption() if callable(caption) else None)
+        draw = getattr(self.estimator, "draw", None)  # and draw more (a 3-D reading)
+        return draw(picture) if callable(draw) else picture
 
     def observation(self, observation: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         self.last_estimate = self.estimator.update(observation["frame"])

@@ -8,6 +8,7 @@ Data flow: frame -> spatial estimator -> `ArmPose` -> retargeter -> joint target
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -15,6 +16,7 @@ import numpy as np
 from imimic_gym.estimators.motion import PathEstimator
 from imimic_gym.estimators.types import Estimate, SpatialEstimator
 from imimic_gym.spatial.arm_pose import ArmPose
+from imimic_gym.spatial.draw import draw_side_view
 
 __all__ = ["RetargetedEstimator"]
 
@@ -49,18 +51,35 @@ class RetargetedEstimator:
         self.targets: np.ndarray | None = None
         self.last_pose: ArmPose | None = None
 
+    def caption(self) -> str:
+        """The last frame's reading in words, for the picture: the elbow's flexion and
+        the trust."""
+        pose = self.last_pose
+        if pose is None:
+            return "no reading yet"
+        seen = f"elbow {math.degrees(pose.elbow_flexion):.0f} deg" if pose.trust > 0 else \
+            "arm not seen: holding"
+        return f"{pose.side} arm, {seen}  eta {pose.trust:.2f}"
+
+    def draw(self, picture: np.ndarray) -> np.ndarray:
+        """``picture`` with this frame's reading seen from the person's side
+        (`spatial.draw.draw_side_view`): where the arm goes toward or away from the
+        camera; unchanged where the arm is not seen."""
+        if self.last_pose is None or self.last_pose.trust == 0.0:
+            return picture
+        return draw_side_view(picture, self.last_pose)
+
     def update(self, frame: np.ndarray, depth: np.ndarray | None = None) -> Estimate:
         """The joint targets for the next (H, W, 3) uint8 RGB ``frame`` (``depth``: its
         (H, W) float32 metres, for an estimator that reads depth)."""
         pose = self.spatial.update(frame, depth)
         self.last_pose = pose
         zeros = np.zeros(len(self.start))
-        keypoints = pose.pixels[:4]  # shoulder, elbow, wrist, hand: drawn as a chain
-        if pose.trust == 0.0:
+        if pose.trust == 0.0:  # nothing drawn: the held pose is not in this frame
             self.path.reset()  # a person who comes back is no velocity spike
             held = self.start if self.targets is None else self.targets
-            return Estimate(angles=held, omega=zeros, alpha=zeros, torque=zeros, trust=0.0,
-                            keypoints=keypoints)
+            return Estimate(angles=held, omega=zeros, alpha=zeros, torque=zeros, trust=0.0)
+        keypoints = pose.pixels[:4]  # shoulder, elbow, wrist, hand: drawn as a chain
         self.targets = self.retarget(pose, self.targets)
         self.path.update(self.targets)
         return Estimate(angles=self.targets, omega=self.path.omega(), alpha=self.path.alpha(),

@@ -66,8 +66,8 @@ def test_without_mediapipe_the_error_says_how_to_install_it_and_on_which_python(
     running = f"{sys.version_info.major}.{sys.version_info.minor}"
     with pytest.raises(PoseModelMissingError,
                        match=rf"wheels for Python 3\.9-3\.12 only \(this is {running}\): "
-                             r"pip install 'imimic_gym\[pose\]' then pip install --no-deps "
-                             r"mediapipe==0\.10\.14"):
+                             r"pip install '\.\[pose\]' in a clone of imimic_gym, then pip "
+                             r"install --no-deps mediapipe==0\.10\.14"):
         PoseModel()
 
 
@@ -229,3 +229,21 @@ def test_an_arm_read_folded_on_the_far_side_unfolds_the_other_way() -> None:
     angles = [math.degrees(estimator.update(np.zeros((8, 8, 3), np.uint8)).angles[0])
               for _ in forearms]
     assert angles == pytest.approx([175.0, 175.0, -100.0, -40.0])
+
+
+def test_without_mediapipe_the_error_gives_the_install_that_works_from_a_clone(
+        monkeypatch) -> None:
+    """The package is on no index: the extra is installed from the clone ('.[pose]'), not
+    by name; the README says the same."""
+    from pathlib import Path
+
+    from imimic_gym.estimators.pose_model import PoseModelMissingError
+
+    monkeypatch.setitem(sys.modules, "mediapipe.python.solutions", None)
+    with pytest.raises(PoseModelMissingError) as missing:
+        PoseModel()
+    assert ("pip install '.[pose]' in a clone of imimic_gym, then pip install --no-deps "
+            "mediapipe==0.10.14") in str(missing.value)
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    assert "imimic_gym[" not in readme.replace("`imimic_gym[pose]` by name is not", "")
+    assert 'pip install ".[pose]"' in readme and 'pip install ".[ray]"' in readme

@@ -122,7 +122,31 @@ def test_a_missing_annotations_file_is_one_line(tmp_path: Path) -> None:
      "train_cnn.py: --out /proc/cnn.pt: /proc is not writable"),
     (["--json", "/proc/pcp.json", "--limit", "2", "--cnn-epochs", "1", "--epochs", "0"],
      "train_cnn.py: --json /proc/pcp.json: /proc is not writable"),
+    (["--split", "shuffled"], "--split takes random or time, got 'shuffled'"),
+    (["--split", "time"], "not with --test-annotations, --eval-only or the shipped dataset"),
+    (["--annotations", "a.json", "--test-annotations", "b.json", "--test-fraction", "0.3"],
+     "not with --test-annotations"),
+    (["--test-fraction", "1"], "argument --test-fraction: expected a number between 0 and 1"),
 ])
 def test_a_bad_input_is_one_line_before_a_run_folder_exists(tmp_path: Path, flags: list[str],
                                                             message: str) -> None:
     assert message in refused(SCRIPT, flags, tmp_path)
+
+
+def test_split_time_trains_on_a_videos_first_frames_and_tests_on_its_last(
+        tmp_path: Path) -> None:
+    from dataclasses import replace
+
+    arms = read_annotations(DEFAULT_ANNOTATIONS / "arm1_train.json")[:20]
+    # Frames of one video, listed out of order: the split follows the image ids.
+    frames = [replace(arm, image_id=100 + k) for k, arm in enumerate(arms)]
+    write_annotations(tmp_path / "video.json", frames[10:] + frames[:10])
+    run("--annotations", str(tmp_path / "video.json"), "--split", "time", "--cnn-epochs", "1",
+        "--epochs", "1", "--threads", "1", "--out", "cnn.pt", cwd=tmp_path)
+    (folder,) = (tmp_path / "runs").iterdir()
+    train = [arm.image_id for arm in read_annotations(folder / "split_train.json")]
+    test = [arm.image_id for arm in read_annotations(folder / "split_test.json")]
+    assert train == list(range(100, 114)) and test == list(range(114, 120))  # 70% / 30%
+    meta = json.loads((tmp_path / "cnn.json").read_text())
+    assert meta["train_images"] == 14 and meta["test"]["n_images"] == 6
+    assert meta["args"]["split"] == "time"
