@@ -373,3 +373,23 @@ def test_the_truth_follows_a_swaying_body_and_a_tilted_camera() -> None:
     assert np.max(np.abs(forearm - FOREARM)) < 1e-9
     ups = np.array([pose.arm_frame()[2] for pose in arm_poses(clip)])
     assert np.degrees(np.max(angle_between(ups, ups[:1]))) > 2.0
+
+
+def test_imimic_clips_truth_file_carries_the_3d_truth_to_a_video(tmp_path) -> None:
+    """The truth JSON of `imimic clip` holds the 3-D truth exactly and the camera; a
+    video loaded with it (cut to fewer frames) gives the same `ArmPose`s."""
+    from imimic_gym.clips.annotations import read_clip_truth, write_clip_truth
+    from imimic_gym.clips.video_load import load_video
+    from imimic_gym.clips.video_writer import write_video
+
+    clip = render_clip(get_scenario("spatial-wave", seed=1, n_frames=12), progress=False)
+    write_clip_truth(tmp_path / "truth.json", clip.truth, clip.meta, clip.fps)
+    truth, geometry = read_clip_truth(tmp_path / "truth.json")
+    for name in ("points3d", "points2d", "arm_angles"):
+        assert np.array_equal(getattr(truth, name), getattr(clip.truth, name)), name
+    assert geometry["intrinsics"] == clip.meta["intrinsics"]
+    video = write_video(tmp_path / "clip.mp4", clip.frames, clip.fps)
+    loaded = load_video(video, tmp_path / "truth.json", max_frames=8)
+    assert np.array_equal(loaded.truth.points3d, clip.truth.points3d[:8])
+    assert clip_intrinsics(loaded) == clip_intrinsics(clip)
+    assert [p.side for p in arm_poses(loaded)] == ["left"] * 8
