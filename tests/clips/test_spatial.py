@@ -180,7 +180,8 @@ def test_the_key_covers_the_body_the_gesture_and_the_persons_looks() -> None:
     ("fields", "message"),
     [({"motion": "wave", "demonstrator": "servo"}, "the spatial arm .* got demonstrator 'servo'"),
      ({"motion": "reach", "n_links": 1}, r"the spatial arm \(motion 'reach'\) .* with 1"),
-     ({"body": "person"}, "the person body has the spatial arm only; motion 'sinusoid'"),
+     ({"body": "person", "demonstrator": "hand", "n_links": 3},
+      "the person body is a human demonstrator's; got demonstrator 'hand'"),
      ({"body": "robot", "motion": "reach", "n_links": 2}, "body must be one of")],
 )
 def test_bad_spatial_specs_are_named(fields: dict, message: str) -> None:
@@ -393,3 +394,15 @@ def test_imimic_clips_truth_file_carries_the_3d_truth_to_a_video(tmp_path) -> No
     assert np.array_equal(loaded.truth.points3d, clip.truth.points3d[:8])
     assert clip_intrinsics(loaded) == clip_intrinsics(clip)
     assert [p.side for p in arm_poses(loaded)] == ["left"] * 8
+
+
+def test_the_person_can_play_a_planar_scenario() -> None:
+    """body="person" on a planar scenario: the same motion and keypoints as the
+    mannequin's (the truth is the arm's, not the figure's), other pixels."""
+    spec = get_scenario("chain-3", seed=2, n_frames=6)
+    mannequin, person = (render_clip(s, progress=False)
+                         for s in (spec, spec.replace(body="person")))
+    assert np.array_equal(person.truth.angles, mannequin.truth.angles)
+    assert np.max(np.abs(person.truth.keypoints[:, :3] - mannequin.truth.keypoints[:, :3])) < 1e-3
+    assert person.truth.points3d is None
+    assert not np.array_equal(person.frames, mannequin.frames)
