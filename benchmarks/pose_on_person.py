@@ -8,7 +8,9 @@ percentile, degrees, on every such frame and on the frames where the arm lies ac
 view (upper arm and forearm each within 45 degrees of the image plane: elsewhere a
 foreshortened segment's image direction is ill-defined, a few pixels turning it by tens
 of degrees). ``--body`` renders the scenarios with another figure (``mannequin``:
-the figure before the person existed), ``--background`` on another wall.
+the figure before the person existed), ``--background`` on another wall; ``--scenarios``
+takes the planar person scenarios too (``default``, ``chain-2``: their arm is always
+across the view).
 
     .venv/bin/python benchmarks/pose_on_person.py                         # person
     .venv/bin/python benchmarks/pose_on_person.py --body mannequin        # before
@@ -47,9 +49,12 @@ def run_clip(job: tuple[str, int, str, str]) -> dict[str, Any]:
     estimator.reset()
     found, errors, across = 0, [], []
     points = clip.truth.points3d
-    segments = np.stack([points[:, 1] - points[:, 0], points[:, 2] - points[:, 1]], axis=1)
-    in_view = np.all(np.abs(segments[..., 2]) < math.sin(math.radians(45))
-                     * np.linalg.norm(segments, axis=-1), axis=1)
+    in_view = np.ones(len(clip), dtype=bool)  # a planar arm moves in the image plane
+    if points is not None:
+        segments = np.stack([points[:, 1] - points[:, 0], points[:, 2] - points[:, 1]],
+                            axis=1)
+        in_view = np.all(np.abs(segments[..., 2]) < math.sin(math.radians(45))
+                         * np.linalg.norm(segments, axis=-1), axis=1)
     truth = keypoints_to_angles(clip.truth.keypoints[:, :3], 1)[:, 0]
     for i, frame in enumerate(clip.frames):
         reading = estimator.read(frame, None, i / clip.fps)

@@ -377,7 +377,8 @@ def truth_from_coco(path: str | Path, n_frames: int, fps: float, n_links: int,
 # What of a rendered clip's meta a robot is built from (`scenarios.robot_for_clip`) and
 # what names the clip; the rest (its cache key, its source) describes the rendering.
 TRUTH_META_KEYS = ("scenario", "seed", "n_links", "demonstrator", "reference_direction",
-                   "joint_ranges", "arm_plane")
+                   "joint_ranges", "arm_plane", "intrinsics", "arm_side")
+_SPATIAL_ARRAYS = ("points3d", "points2d", "arm_angles")  # a spatial clip's 3-D truth
 _TRUTH_ARRAYS = ("angles", "angular_velocity", "angular_acceleration", "keypoints",
                  "visible", "occlusion")
 
@@ -387,7 +388,9 @@ def write_clip_truth(path: str | Path, truth: ClipTruth, meta: dict[str, Any],
     """Write a clip's per-frame truth as JSON (`imimic clip`'s ``<scenario>-seed<k>.json``):
     ``meta``, ``fps``, ``units``, ``keypoint_names``, the `ClipTruth` arrays (angles rad,
     velocities rad/s, accelerations rad/s^2, keypoints pixels (x, y) to 1/100, visible,
-    occlusion to 1/10000) and ``labelled`` where the truth marks frames without one.
+    occlusion to 1/10000), ``labelled`` where the truth marks frames without one, and a
+    spatial clip's 3-D truth (``points3d`` metres in the camera frame, ``points2d``
+    pixels, ``arm_angles`` rad; exact, with the camera in ``meta["intrinsics"]``).
     `read_clip_truth` reads it back, and so does ``ImitateVideo-v0(clip=<the mp4>,
     annotations=<this file>)``."""
     data: dict[str, Any] = {
@@ -405,6 +408,11 @@ def write_clip_truth(path: str | Path, truth: ClipTruth, meta: dict[str, Any],
     }
     if truth.labelled is not None:
         data["labelled"] = truth.labelled.tolist()
+    if truth.points3d is not None and truth.points2d is not None and truth.arm_angles is not None:
+        data["units"].update(points3d="metres, camera frame (x right, y down, z away)",
+                             points2d="pixels (x, y)", arm_angles="rad")
+        data.update(points3d=truth.points3d.tolist(), points2d=truth.points2d.tolist(),
+                    arm_angles=truth.arm_angles.tolist())
     Path(path).write_text(json.dumps(data) + "\n")
 
 
@@ -443,6 +451,8 @@ def read_clip_truth(path: str | Path) -> tuple[ClipTruth, dict[str, Any]]:
             occlusion=np.asarray(data["occlusion"], dtype=np.float32),
             keypoint_names=tuple(str(n) for n in data["keypoint_names"]),
             labelled=None if labelled is None else np.asarray(labelled, dtype=bool),
+            **{key: np.asarray(data[key], dtype=np.float64) for key in _SPATIAL_ARRAYS
+               if key in data},
         )
     except (ValueError, TypeError) as err:
         raise AnnotationError(f"{path}: {err}") from err

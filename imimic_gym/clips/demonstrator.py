@@ -164,6 +164,11 @@ def _arm_chain(spec: ClipSpec, shoulder: np.ndarray) -> tuple[str, str]:
                 ("hand", HUMAN_SEGMENTS[2], 0.033, "skin")]
     s = shoulder
     first_joint = 1 if spec.n_links == 1 else 0
+    person = spec.body == "person"
+    if person:  # the person's limbs along -z, turned onto the link's +x, palm to the camera
+        look = _look(spec) or Appearance()
+        shapes = (_person_arm(look, HUMAN_SEGMENTS[0], HUMAN_SEGMENTS[1], moving=False),
+                  _person_arm(look, HUMAN_SEGMENTS[0], HUMAN_SEGMENTS[1], moving=True))
     chain, closing = "", ""
     for i, (name, length, radius, material) in enumerate(segments):
         pos = fmt(s) if i == 0 else fmt((segments[i - 1][1], 0, 0))
@@ -175,14 +180,17 @@ def _arm_chain(spec: ClipSpec, shoulder: np.ndarray) -> tuple[str, str]:
             joint = f'<joint name="q{joint_index + 1}" axis="0 0 1" range="{lo:.12g} {hi:.12g}"/>'
         group = f'group="{MOVING_GROUP}"' if i >= first_joint else ""
         keypoint = ("shoulder", "elbow", "wrist")[i]
+        shape = (f'<body name="{name}_shape" euler="0 {-math.pi / 2:.12g} 0">'
+                 f'{shapes[i >= first_joint][i]}</body>' if person else
+                 f'<geom name="{name}" type="capsule" fromto="0 0 0 {length} 0 0" '
+                 f'size="{radius}" material="{material}" {group}/>')
         chain += (
             f'<body name="{name}" pos="{pos}" {quat}>{joint}'
-            f'<site name="kp_{keypoint}" size="0.01"/>'
-            f'<geom name="{name}" type="capsule" fromto="0 0 0 {length} 0 0" '
-            f'size="{radius}" material="{material}" {group}/>'
+            f'<site name="kp_{keypoint}" size="0.01"/>{shape}'
         )
         closing += "</body>"
-    chain += f'<site name="kp_hand_tip" pos="{HUMAN_SEGMENTS[2] + 0.033} 0 0" size="0.01"/>'
+    tip = 0.17 if person else HUMAN_SEGMENTS[2] + 0.033
+    chain += f'<site name="kp_hand_tip" pos="{tip} 0 0" size="0.01"/>'
     return chain, closing
 
 
@@ -335,10 +343,15 @@ def _person_arm(look: Appearance, upper: float, fore: float, moving: bool = True
 def _person_body(spec: ClipSpec) -> str:
     """A person facing the camera (-y): legs with shoes, hips, a torso with shoulders,
     a neck, a head with eyes, brows, nose, mouth, ears and hair, the still right arm
-    hanging, and the moving spatial left arm."""
+    hanging, and the moving left arm (spatial, or the planar chain)."""
     look = _look(spec) or Appearance()
     b = look.build
     s = SHOULDER - np.array([0.0, 0.0, HIP_HEIGHT])
+    if spec.spatial:
+        arm = _spatial_arm(spec, s) + _torso_sites(s)
+    else:
+        chain, closing = _arm_chain(spec, s)
+        arm = chain + closing
     still = _person_arm(look, HUMAN_SEGMENTS[0], HUMAN_SEGMENTS[1], moving=False,
                         prefix="still_")
     legs = "".join(
@@ -387,7 +400,7 @@ def _person_body(spec: ClipSpec) -> str:
             <body name="still_hand" pos="0 0 {-HUMAN_SEGMENTS[1]}">{still[2]}</body>
           </body>
         </body>
-        {_spatial_arm(spec, s)}{_torso_sites(s)}
+        {arm}
       </body>
     </body>"""
 

@@ -176,8 +176,9 @@ class ClipSpec:
             and leaves the spec's `key` as it was before the field existed.
         body: the human demonstrator's figure: ``"mannequin"`` (capsules, no face or
             hands: the paper scenarios') or ``"person"`` (a face, hair, hands with
-            fingers, human proportions; the spatial arm only). A person without an
-            appearance is dressed by its seed (`person_look`).
+            fingers, human proportions; a ``"human"`` demonstrator's, the planar arm or
+            the spatial). A person without an appearance is dressed by its seed
+            (`person_look`).
         name: the scenario's name; not part of the clip's identity.
     """
 
@@ -219,9 +220,9 @@ class ClipSpec:
             raise ValueError(f"the spatial arm (motion {self.motion!r}) is a human "
                              f"demonstrator's with 2 or 3 links; got demonstrator "
                              f"{self.demonstrator!r} with {self.n_links}")
-        if self.body == "person" and not self.spatial:
-            raise ValueError(f"the person body has the spatial arm only; motion "
-                             f"{self.motion!r} moves the mannequin's arm in the image plane")
+        if self.body == "person" and self.demonstrator != "human":
+            raise ValueError(f"the person body is a human demonstrator's; got demonstrator "
+                             f"{self.demonstrator!r}")
         if not 0.2 <= self.lighting <= 1.0:
             raise ValueError(f"lighting must be in [0.2, 1.0], got {self.lighting}")
         for name in ("height", "width", "n_frames"):

@@ -138,7 +138,10 @@ def _truth_of_frames(truth: ClipTruth, n_frames: int, annotations: str | Path) -
                    angular_acceleration=truth.angular_acceleration[cut],
                    keypoints=truth.keypoints[cut], visible=truth.visible[cut],
                    occlusion=truth.occlusion[cut],
-                   labelled=None if truth.labelled is None else truth.labelled[cut])
+                   labelled=None if truth.labelled is None else truth.labelled[cut],
+                   **{name: getattr(truth, name)[cut] for name in ("points3d", "points2d",
+                                                                  "arm_angles")
+                      if getattr(truth, name) is not None})
 
 
 def video_memory_limit() -> float:

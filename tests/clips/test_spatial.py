@@ -180,7 +180,8 @@ def test_the_key_covers_the_body_the_gesture_and_the_persons_looks() -> None:
     ("fields", "message"),
     [({"motion": "wave", "demonstrator": "servo"}, "the spatial arm .* got demonstrator 'servo'"),
      ({"motion": "reach", "n_links": 1}, r"the spatial arm \(motion 'reach'\) .* with 1"),
-     ({"body": "person"}, "the person body has the spatial arm only; motion 'sinusoid'"),
+     ({"body": "person", "demonstrator": "hand", "n_links": 3},
+      "the person body is a human demonstrator's; got demonstrator 'hand'"),
      ({"body": "robot", "motion": "reach", "n_links": 2}, "body must be one of")],
 )
 def test_bad_spatial_specs_are_named(fields: dict, message: str) -> None:
@@ -356,3 +357,52 @@ def test_a_person_without_an_appearance_is_dressed_by_its_seed() -> None:
     assert '<material name="shirt" rgba="0.9 0.1 0.1 1"/>' in mjcf
     assert '<material name="hair" rgba="0.9 0.9 0.1 1"/>' in mjcf
     assert fmt((*person_look(3).shirt, 1.0)) in scene_mjcf(spec, np.random.default_rng(0))
+
+
+def test_the_truth_follows_a_swaying_body_and_a_tilted_camera() -> None:
+    """With body sway and a raised, tilted, shifted camera of another field of view, the
+    points still project onto MuJoCo's keypoints and keep their lengths, and the hips
+    roll with the torso (the arm frame's up leaves the camera's)."""
+    look = Appearance(camera_height=0.4, camera_tilt=12.0, camera_shift=-0.2, fovy=55.0)
+    clip = render_clip(get_scenario("spatial-wave", seed=4, n_frames=40, sway=1.0,
+                                    appearance=look), progress=False)
+    truth = clip.truth
+    camera = clip_intrinsics(clip)
+    assert camera.fy == pytest.approx(120 / math.tan(math.radians(27.5)))
+    assert np.max(np.abs(truth.points2d[:, :3] - truth.keypoints[:, :3])) < 0.5
+    forearm = np.linalg.norm(truth.points3d[:, W] - truth.points3d[:, E], axis=1)
+    assert np.max(np.abs(forearm - FOREARM)) < 1e-9
+    ups = np.array([pose.arm_frame()[2] for pose in arm_poses(clip)])
+    assert np.degrees(np.max(angle_between(ups, ups[:1]))) > 2.0
+
+
+def test_imimic_clips_truth_file_carries_the_3d_truth_to_a_video(tmp_path) -> None:
+    """The truth JSON of `imimic clip` holds the 3-D truth exactly and the camera; a
+    video loaded with it (cut to fewer frames) gives the same `ArmPose`s."""
+    from imimic_gym.clips.annotations import read_clip_truth, write_clip_truth
+    from imimic_gym.clips.video_load import load_video
+    from imimic_gym.clips.video_writer import write_video
+
+    clip = render_clip(get_scenario("spatial-wave", seed=1, n_frames=12), progress=False)
+    write_clip_truth(tmp_path / "truth.json", clip.truth, clip.meta, clip.fps)
+    truth, geometry = read_clip_truth(tmp_path / "truth.json")
+    for name in ("points3d", "points2d", "arm_angles"):
+        assert np.array_equal(getattr(truth, name), getattr(clip.truth, name)), name
+    assert geometry["intrinsics"] == clip.meta["intrinsics"]
+    video = write_video(tmp_path / "clip.mp4", clip.frames, clip.fps)
+    loaded = load_video(video, tmp_path / "truth.json", max_frames=8)
+    assert np.array_equal(loaded.truth.points3d, clip.truth.points3d[:8])
+    assert clip_intrinsics(loaded) == clip_intrinsics(clip)
+    assert [p.side for p in arm_poses(loaded)] == ["left"] * 8
+
+
+def test_the_person_can_play_a_planar_scenario() -> None:
+    """body="person" on a planar scenario: the same motion and keypoints as the
+    mannequin's (the truth is the arm's, not the figure's), other pixels."""
+    spec = get_scenario("chain-3", seed=2, n_frames=6)
+    mannequin, person = (render_clip(s, progress=False)
+                         for s in (spec, spec.replace(body="person")))
+    assert np.array_equal(person.truth.angles, mannequin.truth.angles)
+    assert np.max(np.abs(person.truth.keypoints[:, :3] - mannequin.truth.keypoints[:, :3])) < 1e-3
+    assert person.truth.points3d is None
+    assert not np.array_equal(person.frames, mannequin.frames)
