@@ -1,5 +1,6 @@
-"""Direction retargeting: round trips through the robot's forward kinematics, the nearest
-reachable direction, joint limits for any input, continuity along paths, mirrored arms."""
+"""Direction retargeting: round trips through the robot's forward kinematics, the least
+cost against a grid search, the nearest reachable direction, a wave's forearm, joint limits
+for any input, continuity along paths, mirrored arms."""
 
 import math
 
