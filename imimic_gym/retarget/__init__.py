@@ -4,7 +4,7 @@ called as ``retargeter(pose, previous) -> (n_joints,) rad`` and owns nothing els
 (`imimic_gym.retarget.ik`, needs the ``ik`` extra) solves task-space IK through mink."""
 
 from imimic_gym.retarget.directions import DirectionRetargeter, robot_arm_directions
-from imimic_gym.retarget.mapping import MAPPINGS, MIRROR, PersonToRobot
+from imimic_gym.retarget.mapping import MAPPINGS, MIRROR, TILTED, PersonToRobot
 
-__all__ = ["MAPPINGS", "MIRROR", "DirectionRetargeter", "PersonToRobot",
+__all__ = ["MAPPINGS", "MIRROR", "TILTED", "DirectionRetargeter", "PersonToRobot",
            "robot_arm_directions"]

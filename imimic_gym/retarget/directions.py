@@ -7,7 +7,8 @@ up) and taken into the **robot base frame** (x forward, y left, z up) by a
 parallel, so its upper arm, forearm and hand always lie in one vertical plane, the plane
 turned by shoulder_pan. The retargeter picks the plane and the two elevations in it that
 point both segments nearest the person's: the squared angle of the upper arm's error plus
-``forearm_weight`` times the forearm's, within the joint ranges. Where the person's arm
+``forearm_weight`` times the forearm's (`DirectionRetargeter`), within the joint ranges.
+Where the person's arm
 is a pose the robot can take, both come back exactly.
 
 Angles in rad; joint targets (6,) in `SO101Spec.joint_names` order.
@@ -67,16 +68,17 @@ class DirectionRetargeter:
 
     Per frame: shoulder_pan turns the robot's arm plane, shoulder_lift and elbow_flex set
     its upper arm's and forearm's elevations in it, so as to minimise
-    ``e_upper^2 + forearm_weight * e_forearm^2`` (the angles, rad, between the robot's
-    segments and the person's) within the joint ranges; wrist_flex sets the hand's
+    ``e_upper^2 + forearm_weight * e_forearm^2 + flexion_weight * e_flexion^2`` (the
+    angles, rad, between the robot's segments and the person's, and between the robot's
+    elbow flexion and theirs) within the joint ranges; wrist_flex sets the hand's
     signed angle to the forearm (positive continuing the elbow's bend); wrist_roll and
     gripper hold ``wrist_roll`` and ``gripper`` (rad). With a ``previous`` target, each
     choice also pays ``continuity`` rad of direction error per rad of joint motion, so the
     targets move continuously: the pan is held where the arm leaves it free, and a
     solution is never swapped for a distant one that fits only slightly better; and no
     joint moves more than ``max_step`` rad from ``previous``, so where the robot must
-    swing its pan half a turn to follow, it swings over several frames instead of
-    flipping.
+    swing its pan half a turn (or its elbow to the other bend) to follow, it swings over
+    several frames instead of flipping.
     """
 
     spec: SO101Spec = field(default_factory=SO101Spec)
@@ -85,7 +87,7 @@ class DirectionRetargeter:
     gripper: float = 0.0
     continuity: float = 0.1
     max_step: float = math.radians(12.0)
-    forearm_weight: float = 0.5
+    forearm_weight: float = 1.0
     flexion_weight: float = 0.0
 
     def __post_init__(self) -> None:

@@ -8,8 +8,9 @@ arm, the wrist site one robot forearm (0.135 m) further along the person's forea
 tool site one robot hand (wrist to tool) further along the person's hand. IK weighs these
 (``elbow_cost``, ``wrist_cost``, ``tool_cost``) with a posture task toward the previous
 targets and stays inside the joint ranges (mink's configuration limit, then a clip), so
-where the robot's planar arm cannot take both directions it trades them off by the costs,
-unlike `DirectionRetargeter`, which keeps the upper arm exact.
+where the robot's planar arm cannot take both directions it trades them off by the costs
+(locally, from the previous targets; `DirectionRetargeter` weighs the two directions'
+angles and searches all arm planes).
 
 Joint targets (6,) rad in `SO101Spec.joint_names` order.
 """

@@ -9,11 +9,12 @@ shoulder stands in for the person's shoulder. docs/decisions/retargeting.md says
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["MAPPINGS", "MIRROR", "PersonToRobot"]
+__all__ = ["MAPPINGS", "MIRROR", "TILTED", "PersonToRobot"]
 
 
 @dataclass(frozen=True)
@@ -57,4 +58,12 @@ MIRROR = PersonToRobot(
     "mirror", ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)),
     "the robot faces the person like their mirror image: the person's forward, outward and "
     "up are the robot's forward, left and up")
-MAPPINGS: dict[str, PersonToRobot] = {MIRROR.name: MIRROR}
+# rad: how far "tilted" turns the person's arm frame forward-up about the outward axis.
+_TILT = math.radians(66.0)
+TILTED = PersonToRobot(
+    "tilted",
+    ((math.cos(_TILT), 0.0, -math.sin(_TILT)), (0.0, 1.0, 0.0),
+     (math.sin(_TILT), 0.0, math.cos(_TILT))),
+    "as mirror, turned 66 degrees forward-up about the outward axis: a hanging arm points "
+    "forward-down, an arm reaching forward points up, so a relaxed arm stays in reach")
+MAPPINGS: dict[str, PersonToRobot] = {MIRROR.name: MIRROR, TILTED.name: TILTED}

@@ -1,5 +1,6 @@
-"""Direction retargeting: round trips through the robot's forward kinematics, the nearest
-reachable direction, joint limits for any input, continuity along paths, mirrored arms."""
+"""Direction retargeting: round trips through the robot's forward kinematics, the least
+cost against a grid search, the nearest reachable direction, a wave's forearm, joint limits
+for any input, continuity along paths, mirrored arms."""
 
 import math
 
@@ -9,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from imimic_gym.retarget import DirectionRetargeter, robot_arm_directions
+from imimic_gym.retarget import TILTED, DirectionRetargeter, robot_arm_directions
 from imimic_gym.robots import SO101Spec
 from imimic_gym.spatial import ArmPose, angle_between
 from tests.retarget.arms import arm_pose, direction, human_arm, rotate_about
@@ -137,6 +138,15 @@ def test_a_hanging_arm_lowers_the_robots_upper_arm_to_its_limit_and_holds_the_pa
         target = RETARGET(arm_pose(hanging, hanging), target)
     assert target[1] == pytest.approx(LIFT_LIMIT)
     assert target[0] == pytest.approx(start[0])
+
+
+def test_the_tilted_mapping_brings_a_hanging_arm_into_reach():
+    hanging = direction(-math.pi / 2, 0.0)
+    tilted = DirectionRetargeter(SPEC, mapping=TILTED)
+    got_upper, got_fore = robot_arm_directions(SPEC, tilted(arm_pose(hanging, hanging), None),
+                                               TILTED)
+    assert degrees_between(got_upper, hanging) < 0.1
+    assert degrees_between(got_fore, hanging) < 0.1
 
 
 def test_the_wrist_follows_the_hand_in_the_arms_plane():
