@@ -312,7 +312,7 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
               estimator_params: dict[str, Any] | None = None, servo: Any = None,
               progress: bool = True, realtime: bool = False,
               preview_height: int | None = PREVIEW_HEIGHT,
-              robot: str | None = None) -> dict[str, Any]:
+              robot: str | None = None, mapping: str = "mirror") -> dict[str, Any]:
     """Mimic the arm in ``clip`` (a `Clip`, typically from `stream_video`) and write the
     outputs into ``out`` (see the module docstring). ``realtime`` paces a file to its own
     frame rate (a servo then moves at the person's speed; a camera paces itself). Returns
@@ -321,8 +321,9 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
     ``preview_height``: rows of ``mimic.mp4`` where the footage has more (None: the
     footage's); the estimator always reads the full frames. ``robot="so101"``: the arm
     is read in 3-D by a spatial estimator (``pose3d``) and copied by the SO-101 of
-    ``ImitateVideo3D-v0``; ``servo`` is then its bus (`hardware.SO101Bus`) and mimic.csv
-    has `spatial_csv_header`'s columns."""
+    ``ImitateVideo3D-v0`` under the person-to-robot ``mapping`` (`retarget.MAPPINGS`);
+    ``servo`` is then its bus (`hardware.SO101Bus`) and mimic.csv has
+    `spatial_csv_header`'s columns."""
     from tqdm.auto import tqdm
 
     from imimic_gym.controllers import EstimateTarget, PDController
@@ -346,7 +347,7 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
         scene = (gym.make("ImitateVideo-v0", clip=clip, control=control,
                           render_mode="rgb_array", render_height=preview_height)
                  if robot is None else
-                 gym.make("ImitateVideo3D-v0", clip=clip, robot=robot,
+                 gym.make("ImitateVideo3D-v0", clip=clip, robot=robot, mapping=mapping,
                           render_mode="rgb_array", render_height=preview_height))
         env = RegistryObservation(scene, estimator, keep_frame=False, **params)
     except BaseException:  # release the camera or file before the error goes up
@@ -430,7 +431,7 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
     if servo is not None and robot is None:
         summary["servo_commands_sent"], summary["servo_errors"] = servo.sent, servo.errors
     if robot is not None:
-        summary["robot"] = robot
+        summary["robot"], summary["mapping"] = robot, mapping
     (out / "mimic.json").write_text(json.dumps(summary, indent=2) + "\n")
     require_frames(frames, 0 if stopped or live else needed, source, why)
     return summary

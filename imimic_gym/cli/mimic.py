@@ -83,11 +83,12 @@ def _check_robot_options(args: argparse.Namespace) -> None:
     bus = args.port is not None or args.dry_run
     if not spatial:
         for option, given in (("--port", args.port is not None), ("--dry-run", args.dry_run),
+                              ("--mapping", args.mapping != "mirror"),
                               ("--calibration", args.calibration is not None),
                               ("--robot-id", args.robot_id is not None)):
             if given:
-                raise CommandError(f"imimic mimic: {option} is for a real SO-101: give "
-                                   f"--robot so101 with it")
+                raise CommandError(f"imimic mimic: {option} goes with --robot so101 (the "
+                                   f"SO-101, simulated and, with --port, real)")
         return
     for option, given in (("--serial", args.serial is not None), ("--links", args.links != 1),
                           ("--joint-range", args.joint_range is not None),
@@ -207,7 +208,8 @@ def _mimic(args: argparse.Namespace) -> int:
                         estimator_params=params, servo=servo,
                         realtime=not live and (args.realtime or (
                             servo is not None and not args.dry_run)),
-                        preview_height=args.preview_height or None, robot=args.robot)
+                        preview_height=args.preview_height or None, robot=args.robot,
+                        mapping=args.mapping)
     out = Path(args.out)
     print(f"{summary['ended']}: wrote {out / 'mimic.mp4'}, {out / 'angles.png'}, "
           f"{out / 'mimic.csv'}, {out / 'mimic.json'}")
@@ -327,6 +329,12 @@ def add_mimic(sub: argparse._SubParsersAction) -> None:
                        help="copy the arm read in 3-D onto this robot (default: the planar "
                             "arm of the image plane); the SO-101's joint targets go into "
                             "mimic.csv in LeRobot's names and units")
+    from imimic_gym.retarget.mapping import MAPPINGS
+
+    robot.add_argument("--mapping", default="mirror", choices=tuple(MAPPINGS),
+                       help="how the person's arm maps onto the robot: " + "; ".join(
+                           f"{name}: {m.description}" for name, m in MAPPINGS.items())
+                       + " (default: %(default)s)")
     robot.add_argument("--port", default=None, metavar="PORT",
                        help="also drive the real SO-101 on its bus adapter's port "
                             "(/dev/ttyACM0): goal positions through your LeRobot "

@@ -154,3 +154,22 @@ def test_refusals_are_one_line_exit_2_and_write_nothing(fault, person_video,
         assert len(lines) == 1 and "Traceback" not in stderr, stderr
         assert bus.writes() == []
         assert not (tmp_path / "out" / "mimic.csv").exists()
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    (["--port", "/dev/ttyACM0"], "--port goes with --robot so101"),
+    (["--mapping", "tilted"], "--mapping goes with --robot so101"),
+    (["--robot", "so101", "--serial", "/dev/ttyUSB0"], "--serial is the planar arm's"),
+    (["--robot", "so101", "--port", "/dev/ttyACM0"], "needs its LeRobot calibration"),
+    (["--robot", "so101", "--estimator", "pose"], "reads angles in the image plane"),
+    (["--estimator", "pose3d"], "give --robot so101"),
+])
+def test_options_that_do_not_go_together_are_refused_before_any_work(
+        options, message, person_video, tmp_path) -> None:
+    from imimic_gym.cli import main
+    from imimic_gym.cli.common import CommandError
+
+    with pytest.raises(CommandError, match=message):
+        main(["mimic", "--video", str(person_video), "--out", str(tmp_path / "out"),
+              *options])
+    assert not (tmp_path / "out").exists()
