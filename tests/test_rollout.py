@@ -8,25 +8,7 @@ import pytest
 
 import imimic_gym.rollout
 from imimic_gym.rollout import episode
-
-
-class FakeClock:
-    """Stands in for the `time` module in `imimic_gym.rollout`: time passes only when the
-    loop sleeps or the test says so (`spend`)."""
-
-    def __init__(self) -> None:
-        self.now = 100.0
-        self.sleeps: list[float] = []
-
-    def perf_counter(self) -> float:
-        return self.now
-
-    def sleep(self, seconds: float) -> None:
-        self.sleeps.append(seconds)
-        self.now += seconds
-
-    def spend(self, seconds: float) -> None:
-        self.now += seconds
+from tests.clock import FakeClock
 
 
 @pytest.fixture
