@@ -12,8 +12,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
-import tempfile
 import warnings
 import zipfile
 from collections.abc import Iterable, Iterator, Sequence
@@ -24,6 +22,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from imimic_gym.atomic import atomic_write, write_json
 from imimic_gym.clips.annotations import ARM_KEYPOINTS, truth_from_keypoints
 from imimic_gym.clips.types import ClipTruth
 from imimic_gym.interrupts import CTRL_C, is_ctrl_c
@@ -225,16 +224,9 @@ def video_labels(source: str | Path, frames: np.ndarray, fps: float, arm: str = 
 def _write_labels(path: Path, labels: PoseLabels) -> None:
     """``labels`` into ``path`` through a temporary file, so readers never see half a file
     (vector-env workers may write the same labels at once)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.stem, suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            np.savez(f, keypoints=labels.keypoints, confidence=labels.confidence,
-                     labelled=labels.labelled, side=np.array(labels.side, dtype=str))
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_write(path) as f:
+        np.savez(f, keypoints=labels.keypoints, confidence=labels.confidence,
+                 labelled=labels.labelled, side=np.array(labels.side, dtype=str))
 
 
 def label_video(source: str | Path, out: str | Path, arm: str = "auto",
@@ -316,7 +308,7 @@ def label_video(source: str | Path, out: str | Path, arm: str = "auto",
         "categories": [{"id": 1, "name": "arm", "supercategory": "person",
                         "keypoints": list(ARM_KEYPOINTS), "skeleton": [[1, 2], [2, 3]]}],
     }
-    (out / "labels.json").write_text(json.dumps(data, indent=1) + "\n")
+    write_json(out / "labels.json", data, indent=1)
     return {"frames": len(images), "labelled": len(annotations), "fps": rate,
             "labels": str(out / "labels.json"), "images": str(out / "images"),
             "ended": ended, "reported_frames": reported}

@@ -26,7 +26,6 @@ delay.
 from __future__ import annotations
 
 import csv
-import json
 import math
 import queue
 import threading
@@ -39,6 +38,7 @@ from typing import Any, cast
 import gymnasium as gym
 import numpy as np
 
+from imimic_gym.atomic import write_json
 from imimic_gym.clips.video import require_frames
 from imimic_gym.clips.video_writer import write_video
 from imimic_gym.envs.imitate_video import imitate_env
@@ -432,6 +432,6 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
         summary["servo_commands_sent"], summary["servo_errors"] = servo.sent, servo.errors
     if robot is not None:
         summary["robot"], summary["mapping"] = robot, mapping
-    (out / "mimic.json").write_text(json.dumps(summary, indent=2) + "\n")
+    write_json(out / "mimic.json", summary)
     require_frames(frames, 0 if stopped or live else needed, source, why)
     return summary

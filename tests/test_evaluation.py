@@ -51,8 +51,11 @@ def test_occluded_frames_are_scored_with_and_without_prediction() -> None:
     result = evaluate_estimator("exp3-forearm-high", "don", episodes=1)
     row = result["rows"][0]
     assert 0 < row["occluded_frames"] < 150
-    assert math.isfinite(row["rmse_occluded_deg_prediction_off"])
-    assert math.isfinite(row["rmse_occluded_deg_prediction_on"])
+    # Measured on seed 1000: 7.64 deg off, 8.08 on. The prediction layer replaces the
+    # readings of the occluded frames, so the two must differ there.
+    off, on = row["rmse_occluded_deg_prediction_off"], row["rmse_occluded_deg_prediction_on"]
+    assert math.isfinite(off) and math.isfinite(on)
+    assert abs(on - off) > 0.2
     assert 0.0 <= row["mean_trust_occluded"] <= 1.0 and 0.0 <= row["mean_trust_clear"] <= 1.0
 
 

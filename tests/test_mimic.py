@@ -8,7 +8,6 @@ import re
 import signal
 import subprocess
 import sys
-import time
 
 import cv2
 import gymnasium as gym
@@ -23,6 +22,7 @@ from imimic_gym.clips.video_writer import write_video
 from imimic_gym.metrics import angle_rmse_deg
 from imimic_gym.mimic import run_mimic
 from imimic_gym.servo import ServoBridge
+from tests.processes import poll_until, stop
 
 
 def read_csv(path) -> list[dict[str, str]]:
@@ -412,17 +412,12 @@ def test_ctrl_c_stops_the_command_with_130_and_as_many_frames_in_video_as_in_jso
                             str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                            text=True, env={**os.environ, "MUJOCO_GL": "egl"})
     try:
-        deadline = time.monotonic() + 120
-        while (not (out / "mimic.csv").exists()
-               or len(read_csv(out / "mimic.csv")) < 10) and time.monotonic() < deadline:
-            assert run.poll() is None, run.communicate()[1][-2000:]
-            time.sleep(0.05)
+        poll_until(lambda: (out / "mimic.csv").exists() and len(read_csv(out / "mimic.csv")) >= 10,
+                   run, 120, "ten frames in mimic.csv")
         run.send_signal(signal.SIGINT)
         _, err = run.communicate(timeout=120)
     finally:
-        if run.poll() is None:
-            run.kill()
-            run.communicate()
+        stop(run)
     assert run.returncode == 130, err[-2000:]
     summary = json.loads((out / "mimic.json").read_text())
     assert summary["ended"] == "stopped by Ctrl-C" and 10 <= summary["frames"] < 90

@@ -6,7 +6,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 
 import pytest
 
@@ -14,6 +13,7 @@ from imimic_gym.cli import main
 from imimic_gym.evaluation import evaluate_estimator
 from imimic_gym.suite import RunConfig, run_config, summarise
 from imimic_gym.sweep import Cell, SweepError, read_journal, run_sweep, summaries
+from tests.processes import STOP_S, poll_until, stop
 
 FRAMES = 24
 SEEDS = (7, 8)
@@ -77,13 +77,13 @@ def test_a_killed_sweep_resumes_with_only_the_missing_cells(tmp_path) -> None:
                "--out", str(tmp_path / "out")]
     run = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                            env={**os.environ, "MUJOCO_GL": "egl"})
-    deadline = time.monotonic() + 300
-    while (not journal.exists() or len(journal.read_text().splitlines()) < 2) \
-            and time.monotonic() < deadline and run.poll() is None:
-        time.sleep(0.05)
-    assert run.poll() is None, "the sweep ended before it could be killed halfway"
-    run.send_signal(signal.SIGKILL)
-    run.wait()
+    try:
+        poll_until(lambda: journal.exists() and len(journal.read_text().splitlines()) >= 2,
+                   run, 300, "two journalled cells")
+        run.send_signal(signal.SIGKILL)
+        run.wait(timeout=STOP_S)
+    finally:
+        stop(run)
     before = journal.read_text()
     finished = len(before.splitlines())
     assert 2 <= finished < 8

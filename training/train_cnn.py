@@ -37,6 +37,7 @@ import numpy as np
 import torch
 from tqdm.auto import tqdm
 
+from imimic_gym.atomic import write_json
 from imimic_gym.checkpoints import CheckpointError
 from imimic_gym.cli.common import CommandError, at_least, check_writable, positive
 from imimic_gym.clips.annotations import (
@@ -254,10 +255,8 @@ def eval_only(args: Args) -> None:
                             title=f"{args.eval_only} on {path} ({len(arms)} images)",
                             cnn_label=cnn_label))
     if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(
-            {"checkpoint": str(args.eval_only), "annotations": str(path), "links": links,
-             **report}, indent=2) + "\n")
+        write_json(args.json, {"checkpoint": str(args.eval_only), "annotations": str(path),
+                               "links": links, **report})
         print(f"wrote {args.json}")
 
 
@@ -375,8 +374,7 @@ def main() -> None:
     save_model(model, out, metadata)
     print(f"wrote {out} and {out.with_suffix('.json')}; log in {run_dir / 'log.csv'}")
     if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(metadata, indent=2) + "\n")
+        write_json(args.json, metadata)
         print(f"wrote {args.json}")
 
 

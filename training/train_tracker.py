@@ -29,7 +29,6 @@ import json
 import os
 import random
 import shlex
-import shutil
 import subprocess
 import sys
 import tempfile
@@ -47,6 +46,7 @@ from torch.utils.tensorboard import SummaryWriter
 from tqdm import tqdm
 
 import imimic_gym  # noqa: F401  (registers ImitateVideo-v0)
+from imimic_gym.atomic import atomic_write, write_bytes, write_json
 from imimic_gym.checkpoints import file_sha256
 from imimic_gym.cli.common import at_least, finite, positive, unit_interval
 from imimic_gym.clips.scenarios import get_scenario, scenario_names
@@ -369,8 +369,8 @@ def train(args: Args) -> None:
     writer.close()
 
     out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    torch.save(model.policy.state_dict(), out)
+    with atomic_write(out) as stream:
+        torch.save(model.policy.state_dict(), stream)
     import stable_baselines3
 
     metadata = {
@@ -399,7 +399,7 @@ def train(args: Args) -> None:
         "val_metrics": final,
         "args": {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(args).items()},
     }
-    out.with_suffix(".json").write_text(json.dumps(metadata, indent=2) + "\n")
+    write_json(out.with_suffix(".json"), metadata)
     print(f"wrote {out} and {out.with_suffix('.json')} after {train_s:.0f} s")
     for key, value in final.items():
         print(f"  {key:40s} {value:6.2f}")
@@ -492,9 +492,8 @@ def search(args: Args) -> None:
         sys.exit(1)
     best = min(scores, key=lambda k: scores[k])
     chosen = run_dir / f"trial_{best}" / "tracker.pt"
-    out.parent.mkdir(parents=True, exist_ok=True)
     if out.resolve() != chosen.resolve():
-        shutil.copyfile(chosen, out)
+        write_bytes(out, chosen.read_bytes())
     metadata = json.loads(chosen.with_suffix(".json").read_text())
     metadata["search"] = {
         "grid": list(args.search), "backend": args.backend, "chosen": f"trial_{best}",
@@ -502,7 +501,7 @@ def search(args: Args) -> None:
         "trials": [{"trial": f"trial_{k}", "options": grid[k], "val_rmse_deg": scores.get(k)}
                    for k in range(len(grid))]}
     metadata["command"] = shlex.join(["python", "training/train_tracker.py", *sys.argv[1:]])
-    out.with_suffix(".json").write_text(json.dumps(metadata, indent=2) + "\n")
+    write_json(out.with_suffix(".json"), metadata)
     print(f"wrote {out} (trial_{best}, {grid[best]}: validation RMSE {scores[best]:.2f} deg) "
           f"and {out.with_suffix('.json')}")
     for k in sorted(scores, key=lambda k: scores[k]):

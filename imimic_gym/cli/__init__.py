@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import select
 import sys
@@ -12,6 +11,7 @@ from typing import Any
 
 import imimic_gym  # registers the env, sets headless GL; and its __version__
 from imimic_gym._quiet_start import restore_ctrl_c
+from imimic_gym.atomic import write_json
 from imimic_gym.cli.cache import add_cache
 from imimic_gym.cli.common import (
     CommandError,
@@ -91,7 +91,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
         "control": args.control,
         "estimator": args.estimator,
     }
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    write_json(out / "metrics.json", metrics)
     print(f"wrote {out / 'demo.mp4'}, {out / 'angles.png'}, {out / 'metrics.json'}")
     print_table(metrics)
     return 0

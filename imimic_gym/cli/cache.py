@@ -24,6 +24,7 @@ def cmd_cache(args: argparse.Namespace) -> int:
     elif args.cache_dir and Path(args.cache_dir).is_file():  # a read-only cache shows fine
         raise CommandError(f"imimic cache: --cache-dir {args.cache_dir} is a file; expected "
                            f"the cache's folder")
+    if args.cache_dir:
         os.environ["IMIMIC_CACHE_DIR"] = args.cache_dir  # here and on the Ray workers
     try:
         limit = cache_limit_bytes()

@@ -4,11 +4,12 @@ the estimator choices and JSON output."""
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import tempfile
 from pathlib import Path
+
+from imimic_gym.atomic import write_json
 
 
 class CommandError(SystemExit):
@@ -81,8 +82,7 @@ def estimator_names(video_only: bool = False) -> tuple[str, ...]:
 def save_json(path: str | None, data: object) -> None:
     """Write ``data`` as JSON to ``path`` (folders made as needed); nothing if no path."""
     if path:
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
-        Path(path).write_text(json.dumps(data, indent=2) + "\n")
+        write_json(path, data)
         print(f"wrote {path}")
 
 

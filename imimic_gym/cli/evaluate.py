@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from imimic_gym.atomic import write_text
 from imimic_gym.cli.common import (
     CommandError,
     add_backend,
@@ -379,7 +380,7 @@ def _cmd_eval_suite(args: argparse.Namespace, sweep: bool) -> int:
     if args.paper:
         table = paper_table(results) + "\n\n" + table
     print(table)
-    (out / "eval.md").write_text(table + "\n")
+    write_text(out / "eval.md", table + "\n")
     print(f"wrote {out / 'eval.md'} and {len(results)} plots in {out / 'plots'}")
     save_json(args.json, results)
     return _stopped_by_ctrl_c(len(results)) if stopped else _report_failures(failed, args)

@@ -45,6 +45,7 @@ from typing import Any
 
 import numpy as np
 
+from imimic_gym.atomic import write_json
 from imimic_gym.clips.types import ClipTruth
 from imimic_gym.kinematics import keypoints_to_angles, wrap_angle
 
@@ -238,8 +239,7 @@ def write_annotations(path: str | Path, arms: list[ArmAnnotation],
         "categories": [{"id": 1, "name": "arm", "supercategory": "person",
                         "keypoints": list(ARM_KEYPOINTS), "skeleton": [[1, 2], [2, 3]]}],
     }
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    Path(path).write_text(json.dumps(data, indent=1) + "\n")
+    write_json(path, data, indent=1)
 
 
 def image_path(arm: ArmAnnotation, images_dir: str | Path) -> Path:
@@ -413,7 +413,7 @@ def write_clip_truth(path: str | Path, truth: ClipTruth, meta: dict[str, Any],
                              points2d="pixels (x, y)", arm_angles="rad")
         data.update(points3d=truth.points3d.tolist(), points2d=truth.points2d.tolist(),
                     arm_angles=truth.arm_angles.tolist())
-    Path(path).write_text(json.dumps(data) + "\n")
+    write_json(path, data, indent=None)
 
 
 def is_clip_truth(data: Any) -> bool:

@@ -23,13 +23,13 @@ import json
 import logging
 import math
 import os
-import tempfile
 import zipfile
 from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
 
+from imimic_gym.atomic import atomic_write
 from imimic_gym.clips.scenarios import ClipSpec
 from imimic_gym.clips.synthetic import render_clip
 from imimic_gym.clips.types import Clip, ClipTruth, depth_from_mm, depth_to_mm
@@ -141,30 +141,23 @@ def _write(path: Path, clip: Clip) -> None:
         assert truth.points2d is not None and truth.arm_angles is not None
         spatial = {"points3d": truth.points3d, "points2d": truth.points2d,
                    "arm_angles": truth.arm_angles}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.stem, suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            np.savez(
-                f,
-                format_version=np.int64(FORMAT_VERSION),
-                meta=np.array(json.dumps(clip.meta)),
-                fps=np.float64(clip.fps),
-                frames=clip.frames,
-                depth_mm=depth_to_mm(clip.depth),
-                angles=truth.angles,
-                angular_velocity=truth.angular_velocity,
-                angular_acceleration=truth.angular_acceleration,
-                keypoints=truth.keypoints,
-                visible=truth.visible,
-                occlusion=truth.occlusion,
-                keypoint_names=np.array(truth.keypoint_names),
-                **spatial,
-            )
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_write(path) as f:
+        np.savez(
+            f,
+            format_version=np.int64(FORMAT_VERSION),
+            meta=np.array(json.dumps(clip.meta)),
+            fps=np.float64(clip.fps),
+            frames=clip.frames,
+            depth_mm=depth_to_mm(clip.depth),
+            angles=truth.angles,
+            angular_velocity=truth.angular_velocity,
+            angular_acceleration=truth.angular_acceleration,
+            keypoints=truth.keypoints,
+            visible=truth.visible,
+            occlusion=truth.occlusion,
+            keypoint_names=np.array(truth.keypoint_names),
+            **spatial,
+        )
 
 
 def _read(path: Path, spec: ClipSpec) -> Clip:

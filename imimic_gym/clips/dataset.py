@@ -17,8 +17,6 @@ from __future__ import annotations
 
 import hashlib
 import logging
-import os
-import tempfile
 from collections import defaultdict
 from pathlib import Path
 from typing import Any, cast
@@ -27,6 +25,7 @@ import cv2
 import numpy as np
 from tqdm.auto import tqdm
 
+from imimic_gym.atomic import write_bytes
 from imimic_gym.checkpoints import SHIPPED_ANNOTATIONS
 from imimic_gym.clips.annotations import ArmAnnotation, image_path
 from imimic_gym.clips.cache import cache_dir
@@ -132,19 +131,11 @@ def rendered_image_path(render: dict) -> Path:
 
 
 def _store(path: Path, rgb: np.ndarray) -> None:
-    """Write a PNG under a temporary name, then rename: a reader never sees half a file."""
-    path.parent.mkdir(parents=True, exist_ok=True)
+    """Write a PNG whole (`atomic.write_bytes`): a reader never sees half a file."""
     ok, png = cv2.imencode(".png", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
     if not ok:
         raise OSError(f"could not encode {path}")
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.stem, suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(png.tobytes())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    write_bytes(path, png.tobytes())
 
 
 def generate_arms(links: int, n_clips: int, first_seed: int, rng_seed: int,

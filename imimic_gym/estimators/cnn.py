@@ -34,6 +34,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from imimic_gym.atomic import atomic_write, write_json
 from imimic_gym.checkpoints import (
     SHIPPED_CHECKPOINTS,
     CheckpointError,
@@ -188,11 +189,11 @@ def save_model(model: CNNRefiner, path: str | Path, metadata: dict[str, Any]) ->
     checkpoints stay small); `load_model` casts them back to float32, which moves a
     predicted keypoint by far less than a pixel."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    torch.save({k: v.half() if v.is_floating_point() else v
-                for k, v in model.state_dict().items()}, path)
+    with atomic_write(path) as stream:
+        torch.save({k: v.half() if v.is_floating_point() else v
+                    for k, v in model.state_dict().items()}, stream)
     meta = {"architecture": asdict(model.config), **metadata, "sha256": file_sha256(path)}
-    path.with_suffix(".json").write_text(json.dumps(meta, indent=2) + "\n")
+    write_json(path.with_suffix(".json"), meta)
 
 
 def load_model(path: str | Path) -> CNNRefiner:

@@ -55,7 +55,7 @@ def finish(process: subprocess.Popen) -> tuple[int, str, str]:
         stdout, stderr = process.communicate(timeout=DEADLINE_S)
     except subprocess.TimeoutExpired:
         process.kill()
-        stdout, stderr = process.communicate()
+        stdout, stderr = process.communicate(timeout=30)
         raise AssertionError(
             f"imimic mimic did not end in {DEADLINE_S} s:\n{stderr[-2000:]}") from None
     return process.returncode, stdout, stderr
@@ -126,7 +126,8 @@ def test_ctrl_c_releases_the_torque_and_exits_130(person_video, calibration_file
         # A few frames into the run (the bus paces it to the video's 30 frames/s).
         if not bus.wait_for(lambda: len(bus.goal_writes()) >= 6, timeout_s=DEADLINE_S):
             process.kill()
-            raise AssertionError(f"no goal writes: {process.communicate()[1][-2000:]}")
+            raise AssertionError(
+                f"no goal writes: {process.communicate(timeout=30)[1][-2000:]}")
         process.send_signal(signal.SIGINT)
         code, _, stderr = finish(process)
         assert code == 130, stderr[-2000:]

@@ -245,3 +245,27 @@ def test_a_search_on_ray_without_ray_is_one_line(tmp_path) -> None:
     assert result.stderr.strip().splitlines()[-1].startswith(
         "train_tracker.py: the ray backend needs Ray: pip install")
     assert not list((tmp_path / "runs").glob("*/trial_*/tracker.pt"))
+
+
+def test_a_two_trial_local_search_writes_the_best_policy_and_it_loads(tmp_path) -> None:
+    """``--search seed=0,1 --backend local``: the two trials run one after the other here;
+    the one with the lower validation RMSE is copied to --out, bit for bit."""
+    out = tmp_path / "best.pt"
+    subprocess.run([sys.executable, str(SCRIPT), "--scenarios", "exp2-servo",
+                    "--train-seeds", "1", "--val-seeds", "900", "--frames", "20",
+                    "--total-timesteps", "60", "--learning-starts", "30", "--batch-size", "16",
+                    "--eval-every", "60", "--search", "seed=0,1", "--backend", "local",
+                    "--run-name", "search", "--logdir", str(tmp_path / "runs"),
+                    "--out", str(out)], check=True, timeout=600, capture_output=True)
+    meta = json.loads(out.with_suffix(".json").read_text())
+    search = meta["search"]
+    assert search["backend"] == "local" and search["grid"] == ["seed=0,1"]
+    assert [t["options"] for t in search["trials"]] == [{"seed": 0}, {"seed": 1}]
+    assert all(np.isfinite(t["val_rmse_deg"]) for t in search["trials"])
+    best = min(search["trials"], key=lambda t: t["val_rmse_deg"])
+    assert search["chosen"] == best["trial"] and meta["args"]["seed"] == best["options"]["seed"]
+    chosen = tmp_path / "runs" / "search" / best["trial"] / "tracker.pt"
+    assert out.read_bytes() == chosen.read_bytes()
+    env = DONObservation(gym.make("ImitateVideo-v0", scenario="exp2-servo", n_frames=20,
+                                  control="velocity", clip_seeds=(900,)), keep_frame=False)
+    assert np.isfinite(run_episode(env, LearnedController(env, out), seed=0).metrics()["rmse_deg"])

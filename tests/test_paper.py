@@ -1,0 +1,71 @@
+"""The paper table's verdicts, on hand-made figures either side of each threshold."""
+
+from typing import Any
+
+import pytest
+
+from imimic_gym.paper import PAPER_EXPERIMENTS, paper_table
+
+
+def experiment(name: str):
+    (found,) = [e for e in PAPER_EXPERIMENTS if e.name == name]
+    return found
+
+
+def figures(rmse_deg: float = 10.0, mean_trust: float | None = 0.5) -> dict[str, Any]:
+    return {"rmse_deg": rmse_deg, "lag_frames": 1.0, "mean_trust": mean_trust}
+
+
+@pytest.mark.parametrize(("rmse_deg", "verdict"), [
+    (20.5, "fails here too (RMSE over 20 deg)"),
+    (20.0, "tracks where the paper failed"),
+    (19.5, "tracks where the paper failed"),
+])
+def test_experiment_1_fails_only_over_20_degrees(rmse_deg: float, verdict: str) -> None:
+    assert experiment("exp1").compare(figures(rmse_deg)) == verdict
+
+
+@pytest.mark.parametrize(("rmse_deg", "verdict"), [
+    (3.9, "near perfect (RMSE at most 4 deg)"),
+    (4.0, "near perfect (RMSE at most 4 deg)"),
+    (4.1, "not near perfect"),
+])
+def test_experiment_2_is_near_perfect_up_to_4_degrees(rmse_deg: float, verdict: str) -> None:
+    assert experiment("exp2").compare(figures(rmse_deg)) == verdict
+
+
+@pytest.mark.parametrize(("name", "eta", "verdict"), [
+    ("exp3 none", 0.85, "eta 0.85, outside the paper's 0.9-1.0"),
+    ("exp3 none", 0.9, "eta 0.90, inside the paper's 0.9-1.0"),
+    ("exp3 none", 0.97, "eta 0.97, inside the paper's 0.9-1.0"),
+    ("exp3 low", 0.45, "eta 0.45, outside the paper's 0.5-0.7"),
+    ("exp3 low", 0.6, "eta 0.60, inside the paper's 0.5-0.7"),
+    ("exp3 low", 0.75, "eta 0.75, outside the paper's 0.5-0.7"),
+    ("exp3 high", 0.25, "eta 0.25, outside the paper's 0.3-0.4"),
+    ("exp3 high", 0.35, "eta 0.35, inside the paper's 0.3-0.4"),
+    ("exp3 high", 0.45, "eta 0.45, outside the paper's 0.3-0.4"),
+])
+def test_experiment_3_says_whether_eta_is_in_the_papers_range(name: str, eta: float,
+                                                              verdict: str) -> None:
+    assert experiment(name).compare(figures(mean_trust=eta)) == verdict
+
+
+def test_the_table_puts_each_verdict_on_its_experiments_row() -> None:
+    results = [
+        {"scenario": "exp1-noisy-fast", "controller": "position", "estimator": "don",
+         "mean": figures(rmse_deg=25.0, mean_trust=0.4)},
+        {"scenario": "exp2-servo", "controller": "learned", "estimator": "don",
+         "mean": figures(rmse_deg=1.25, mean_trust=None)},
+        {"scenario": "exp3-forearm-high", "controller": "position", "estimator": "don",
+         "mean": figures(rmse_deg=6.0, mean_trust=0.8)},
+    ]
+    rows = paper_table(results).splitlines()
+    assert len(rows) == 2 + 3
+    assert rows[2] == ("| exp1 | `exp1-noisy-fast` | don | position | 25.00 | 1.0 | 0.40 | "
+                       "DON failed: fast random motion with body sway | "
+                       "fails here too (RMSE over 20 deg) |  |")
+    assert rows[3] == ("| exp2 | `exp2-servo` | don | learned | 1.25 | 1.0 | - | "
+                       "servo arm copied near perfectly | near perfect (RMSE at most 4 deg) |"
+                       "  |")
+    assert rows[4].endswith("| eta 0.80, outside the paper's 0.3-0.4 |  |")
+    assert rows[4].startswith("| exp3 high | `exp3-forearm-high` | don | position | 6.00 |")
