@@ -265,12 +265,7 @@ def arm_keypoints_from_coco(path: str | Path, n_frames: int,
     if side not in ("auto", "left", "right"):
         raise ValueError(f"side must be 'auto', 'left' or 'right', got {side!r}")
     path = Path(path)
-    try:
-        data = json.loads(path.read_text())
-    except FileNotFoundError as err:
-        raise AnnotationError(f"{path}: no such annotation file") from err
-    except json.JSONDecodeError as err:
-        raise AnnotationError(f"{path}: not valid JSON ({err})") from err
+    data = _load_json(path)
     if not isinstance(data, dict) or "images" not in data or "annotations" not in data:
         raise AnnotationError(f"{path} is not COCO keypoints: it needs 'images' and "
                               "'annotations'")
@@ -429,12 +424,7 @@ def read_clip_truth(path: str | Path) -> tuple[ClipTruth, dict[str, Any]]:
         AnnotationError: not JSON, a missing array, arrays of unequal length or shape.
     """
     path = Path(path)
-    try:
-        data = json.loads(path.read_text())
-    except FileNotFoundError as err:
-        raise AnnotationError(f"{path}: no such annotation file") from err
-    except json.JSONDecodeError as err:
-        raise AnnotationError(f"{path}: not valid JSON ({err})") from err
+    data = _load_json(path)
     if not is_clip_truth(data):
         raise AnnotationError(f"{path} is not a clip's truth file (imimic clip): it needs "
                               "an 'angles' key")
@@ -458,3 +448,13 @@ def read_clip_truth(path: str | Path) -> tuple[ClipTruth, dict[str, Any]]:
         raise AnnotationError(f"{path}: {err}") from err
     meta = data.get("meta") if isinstance(data.get("meta"), dict) else {}
     return truth, {k: meta[k] for k in TRUTH_META_KEYS if k in meta}
+
+
+def _load_json(path: Path) -> Any:
+    """``path``'s JSON; AnnotationError naming the file where it is missing or not JSON."""
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError as err:
+        raise AnnotationError(f"{path}: no such annotation file") from err
+    except json.JSONDecodeError as err:
+        raise AnnotationError(f"{path}: not valid JSON ({err})") from err
