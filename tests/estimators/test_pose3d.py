@@ -19,6 +19,7 @@ from imimic_gym.estimators.registry import (
 from imimic_gym.estimators.types import EstimatorContext
 from imimic_gym.evaluation import cannot_score
 from imimic_gym.spatial import ArmPose, Intrinsics
+from tests.estimators.test_pose import ScriptedModel
 
 CAMERA = Intrinsics.from_fovy(45, 640, 480)
 FRAME = np.zeros((480, 640, 3), np.uint8)
@@ -59,20 +60,6 @@ def test_the_depth_route_reads_the_rendered_depth(person_clip) -> None:
     with pytest.raises(ValueError, match="source='depth'\\) needs each frame's depth image"):
         estimator.update(person_clip.frames[0])
 
-
-class ScriptedModel:
-    """A pose model that plays back hand-built readings (None: nobody in view)."""
-
-    def __init__(self, bodies) -> None:
-        self.bodies, self.i = list(bodies), 0
-
-    def reset(self) -> None:
-        self.i = 0
-
-    def __call__(self, frame, time_s=None):
-        body = self.bodies[self.i]
-        self.i += 1
-        return body
 
 
 def person(forearm_z: float = -0.5, confidence: float = 0.9, world: bool = True
