@@ -399,7 +399,7 @@ def other_cnn(tmp_path_factory) -> Path:
     weights and metadata, copied where a user's training run would put them."""
     import shutil
 
-    from imimic_gym.estimators.cnn import default_checkpoint
+    from imimic_gym.estimators.cnn.estimator import default_checkpoint
 
     folder = tmp_path_factory.mktemp("mine")
     for suffix in (".pt", ".json"):

@@ -131,7 +131,7 @@ def test_don_paper_is_don_without_its_appearance_layer() -> None:
     ``appearance=False``, other numbers than the default DON on a cluttered clip."""
     from imimic_gym.clips.cache import load_clip
     from imimic_gym.clips.scenarios import get_scenario
-    from imimic_gym.estimators.don import DON
+    from imimic_gym.estimators.don.one_link import DON
     from imimic_gym.metrics import angle_rmse_deg
 
     spec = get_scenario("exp3-forearm-none", seed=1000)
@@ -148,7 +148,7 @@ def test_don_paper_is_don_without_its_appearance_layer() -> None:
 def test_don_paper_on_two_links_is_linked_don_without_its_appearance_layer() -> None:
     from imimic_gym.clips.cache import load_clip
     from imimic_gym.clips.scenarios import get_scenario
-    from imimic_gym.estimators.don_links import LinkedDON
+    from imimic_gym.estimators.don.linked import LinkedDON
     from imimic_gym.metrics import angle_rmse_deg
 
     spec = get_scenario("chain-2", seed=1000)

@@ -17,7 +17,7 @@ from imimic_gym.cli import main
 from imimic_gym.clips import get_scenario, load_clip
 from imimic_gym.clips.annotations import read_annotations
 from imimic_gym.clips.video_writer import write_video
-from imimic_gym.estimators.pose import human_joint_ranges
+from imimic_gym.estimators.pose.planar import human_joint_ranges
 from imimic_gym.kinematics import keypoints_to_angles
 from imimic_gym.labels import label_video
 
@@ -151,7 +151,7 @@ def test_label_takes_an_intact_file_whose_container_counts_more_frames(edit_list
 
 def test_ctrl_c_while_labelling_keeps_the_frames_read(person_video, tmp_path,
                                                       monkeypatch) -> None:
-    from imimic_gym.estimators.pose import PoseEstimator
+    from imimic_gym.estimators.pose.planar import PoseEstimator
 
     read, calls = PoseEstimator.read, []
 

@@ -295,7 +295,7 @@ def test_by_default_mimic_finds_the_person_holds_when_they_leave_and_picks_them_
     assert np.ptp(estimate[21:40]) == 0.0 and np.ptp(robot[30:40]) < math.radians(1.0)
     # Back in view: read again, and the forearm followed, roughly: the model reads our
     # small mannequin in a compressed video some 20 degrees off on the median frame
-    # (the uncompressed clip's accuracy is tests/estimators/test_pose.py's).
+    # (the uncompressed clip's accuracy is tests/estimators/pose/test_planar.py's).
     assert (eta[45:] > 0.5).mean() > 0.8
     error = np.degrees(np.abs(estimate[45:] - clip.truth.angles[25:, 0]))
     assert np.median(error) < 30.0 and np.ptp(robot[40:]) > math.radians(10.0)

@@ -47,7 +47,7 @@ from imimic_gym.clips.annotations import (
     write_annotations,
 )
 from imimic_gym.clips.dataset import DEFAULT_ANNOTATIONS, load_images
-from imimic_gym.estimators.cnn import (
+from imimic_gym.estimators.cnn.estimator import (
     CNNRefiner,
     NetConfig,
     keypoint_loss,
@@ -57,7 +57,7 @@ from imimic_gym.estimators.cnn import (
     to_input,
     to_units,
 )
-from imimic_gym.estimators.cnn_report import format_pcp_tables, pcp_report
+from imimic_gym.estimators.cnn.report import format_pcp_tables, pcp_report
 
 
 @dataclass

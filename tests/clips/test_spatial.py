@@ -7,7 +7,6 @@ import mujoco
 import numpy as np
 import pytest
 
-from imimic_gym.arms import fmt
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.demonstrator import scene_mjcf
 from imimic_gym.clips.gestures import GESTURES, SPATIAL_JOINT_RANGES, sample_gesture
@@ -19,6 +18,7 @@ from imimic_gym.clips.scenarios import (
     scenario_names,
 )
 from imimic_gym.clips.synthetic import render_clip
+from imimic_gym.robots.planar import fmt
 from imimic_gym.spatial import ARM_POINTS, ArmPose, angle_between
 from imimic_gym.spatial.truth import arm_poses, clip_intrinsics
 

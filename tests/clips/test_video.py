@@ -21,7 +21,7 @@ from imimic_gym.clips.video import (
 )
 from imimic_gym.clips.video_load import load_video
 from imimic_gym.clips.video_writer import write_video
-from imimic_gym.estimators.don import DON
+from imimic_gym.estimators.don.one_link import DON
 from imimic_gym.metrics import angle_rmse_deg
 
 WARM_UP = 15  # frames: DON sees nothing before the arm has moved

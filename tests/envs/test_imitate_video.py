@@ -19,7 +19,7 @@ from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
 from imimic_gym.clips.video_writer import write_video
 from imimic_gym.controllers import OracleController
-from imimic_gym.estimators.pose import human_joint_ranges
+from imimic_gym.estimators.pose.planar import human_joint_ranges
 from imimic_gym.metrics import angle_rmse_deg
 from imimic_gym.rollout import run_episode
 

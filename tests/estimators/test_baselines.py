@@ -8,8 +8,7 @@ import pytest
 
 from imimic_gym.estimators.baselines import CamShiftEstimator, MOG2Estimator
 from imimic_gym.estimators.types import Estimate
-
-from .test_don import FPS, PIVOT, H, W, sweep
+from tests.estimators.don.test_one_link import FPS, PIVOT, H, W, sweep
 
 
 def coloured_bar(angle: float) -> np.ndarray:

@@ -7,7 +7,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import imimic_gym  # noqa: F401
 from imimic_gym.controllers import EstimateTarget, PDController
-from imimic_gym.estimators.config import don_preset
+from imimic_gym.estimators.don.config import don_preset
 from imimic_gym.estimators.types import Estimate
 from imimic_gym.metrics import angle_rmse_deg
 from imimic_gym.rollout import run_episode

@@ -8,11 +8,11 @@ import cv2
 import numpy as np
 import pytest
 
-from imimic_gym.estimators.config import TrackerConfig
+from imimic_gym.estimators.don.config import TrackerConfig
+from imimic_gym.estimators.don.link_tracker import LinkTracker
+from imimic_gym.estimators.don.pivot import PivotEstimator
+from imimic_gym.estimators.don.regions import component_lines
 from imimic_gym.estimators.joint_range import within_range
-from imimic_gym.estimators.link_tracker import LinkTracker
-from imimic_gym.estimators.pivot import PivotEstimator
-from imimic_gym.estimators.regions import component_lines
 
 EDGE_MEMORY, RIGID_FRAMES = TrackerConfig().edge_memory, TrackerConfig().rigid_frames
 

@@ -6,8 +6,8 @@ import cv2
 import numpy as np
 import pytest
 
-from imimic_gym.estimators.appearance import LinkAppearance
-from imimic_gym.estimators.don import DON
+from imimic_gym.estimators.don.appearance import LinkAppearance
+from imimic_gym.estimators.don.one_link import DON
 from imimic_gym.kinematics import wrap_angle
 
 H, W = 120, 160  # the working resolution: the layer takes working frames
@@ -303,8 +303,8 @@ def test_vouched_readings_ten_degrees_off_relearn_the_colour_only_by_default(
 def test_every_setting_of_the_layer_comes_from_its_config() -> None:
     """DON and LinkedDON hand their `colour` settings to the layer; a field given to the
     layer replaces the config's."""
-    from imimic_gym.estimators.config import AppearanceConfig, don_preset, override
-    from imimic_gym.estimators.don import DON
+    from imimic_gym.estimators.don.config import AppearanceConfig, don_preset, override
+    from imimic_gym.estimators.don.one_link import DON
 
     don = DON(config=override(don_preset("rgb"), {"colour.sigma": 20.0, "colour.near": 3}))
     assert don.appearance is not None

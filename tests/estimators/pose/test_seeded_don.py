@@ -9,8 +9,8 @@ import cv2
 import numpy as np
 import pytest
 
-from imimic_gym.estimators.pose_don import CROP, PoseSeededDON
-from imimic_gym.estimators.pose_model import KEYPOINTS, BodyKeypoints
+from imimic_gym.estimators.pose.model import KEYPOINTS, BodyKeypoints
+from imimic_gym.estimators.pose.seeded_don import CROP, PoseSeededDON
 
 FRAMES = 90
 UPPER, FOREARM = 50.0, 45.0  # px

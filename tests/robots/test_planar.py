@@ -4,7 +4,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from imimic_gym.arms import ArmSpec, build_arm_model
+from imimic_gym.robots.planar import ArmSpec, build_arm_model
 
 
 def settle(spec: ArmSpec, ctrl: np.ndarray, seconds: float = 1.0) -> mujoco.MjData:

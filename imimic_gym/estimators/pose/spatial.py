@@ -29,8 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from imimic_gym.estimators.pose import ArmChooser
-from imimic_gym.estimators.pose_model import KEYPOINTS, BodyKeypoints, PoseModel
+from imimic_gym.estimators.pose.model import KEYPOINTS, BodyKeypoints, PoseModel
+from imimic_gym.estimators.pose.planar import ArmChooser
 from imimic_gym.spatial.arm_pose import ArmPose
 from imimic_gym.spatial.camera import Intrinsics
 from imimic_gym.spatial.lift import (

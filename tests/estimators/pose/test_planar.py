@@ -11,13 +11,13 @@ import pytest
 
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
-from imimic_gym.estimators.pose import ELBOW_RANGE, ArmChooser, PoseEstimator
-from imimic_gym.estimators.pose_model import (
+from imimic_gym.estimators.pose.model import (
     KEYPOINTS,
     BodyKeypoints,
     PoseModel,
     PoseModelMissingError,
 )
+from imimic_gym.estimators.pose.planar import ELBOW_RANGE, ArmChooser, PoseEstimator
 from imimic_gym.kinematics import keypoints_to_angles
 from imimic_gym.metrics import angle_rmse_deg
 
@@ -237,13 +237,13 @@ def test_without_mediapipe_the_error_gives_the_install_that_works_from_a_clone(
     by name; the README says the same."""
     from pathlib import Path
 
-    from imimic_gym.estimators.pose_model import PoseModelMissingError
+    from imimic_gym.estimators.pose.model import PoseModelMissingError
 
     monkeypatch.setitem(sys.modules, "mediapipe.python.solutions", None)
     with pytest.raises(PoseModelMissingError) as missing:
         PoseModel()
     assert ("pip install '.[pose]' in a clone of imimic_gym, then pip install --no-deps "
             "mediapipe==0.10.14") in str(missing.value)
-    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    readme = (Path(__file__).resolve().parents[3] / "README.md").read_text()
     assert "imimic_gym[" not in readme.replace("`imimic_gym[pose]` by name is not", "")
     assert 'pip install ".[pose]"' in readme and 'pip install ".[ray]"' in readme

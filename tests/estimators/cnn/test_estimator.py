@@ -9,7 +9,7 @@ import torch
 
 from imimic_gym.clips.scenarios import ClipSpec
 from imimic_gym.clips.synthetic import render_clip
-from imimic_gym.estimators.cnn import (
+from imimic_gym.estimators.cnn.estimator import (
     CheckpointError,
     CNNEstimator,
     CNNRefiner,
@@ -21,7 +21,7 @@ from imimic_gym.estimators.cnn import (
     predict_keypoints,
     save_model,
 )
-from imimic_gym.estimators.cnn_report import format_pcp_tables, pcp_report
+from imimic_gym.estimators.cnn.report import format_pcp_tables, pcp_report
 from imimic_gym.metrics import angle_rmse_deg
 
 SMALL = NetConfig(input_hw=(12, 16), conv_channels=(2, 4), dense_units=8, refiner_units=8)

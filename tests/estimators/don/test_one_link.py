@@ -7,10 +7,10 @@ import cv2
 import numpy as np
 import pytest
 
-from imimic_gym.estimators.config import DONConfig
-from imimic_gym.estimators.don import DON, FrameShapeError
-from imimic_gym.estimators.motion_mask import SlidingExtrema
-from imimic_gym.estimators.regions import component_lines
+from imimic_gym.estimators.don.config import DONConfig
+from imimic_gym.estimators.don.motion_mask import SlidingExtrema
+from imimic_gym.estimators.don.one_link import DON, FrameShapeError
+from imimic_gym.estimators.don.regions import component_lines
 from imimic_gym.kinematics import wrap_angle
 
 H, W, FPS = 240, 320, 30.0
@@ -471,7 +471,7 @@ def test_the_prediction_layer_does_not_roll_on_from_a_reading_of_half_the_link()
 
 @pytest.mark.parametrize("fps", [0.0, -30.0, float("nan"), float("inf")])
 def test_a_frame_rate_that_is_not_positive_and_finite_is_refused(fps) -> None:
-    from imimic_gym.estimators.don_links import LinkedDON
+    from imimic_gym.estimators.don.linked import LinkedDON
 
     message = "fps must be a positive, finite number of frames per second"
     with pytest.raises(ValueError, match=message):

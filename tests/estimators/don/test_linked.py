@@ -8,9 +8,9 @@ import pytest
 
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
-from imimic_gym.estimators.chain_fit import blob_ends, facing_point, segment_score
-from imimic_gym.estimators.config import LinkedDONConfig
-from imimic_gym.estimators.don_links import LinkedDON
+from imimic_gym.estimators.don.chain_fit import blob_ends, facing_point, segment_score
+from imimic_gym.estimators.don.config import LinkedDONConfig
+from imimic_gym.estimators.don.linked import LinkedDON
 from imimic_gym.kinematics import wrap_angle
 
 FPS = 30.0
@@ -218,7 +218,7 @@ def test_torque_is_the_robot_models_inverse_dynamics() -> None:
 def test_noise_and_flashes_are_not_trusted_and_leave_no_velocity() -> None:
     """Frames that change all over (noise, a flash, a cut) are no link's motion: trust 0
     and the arm held, not the 0.83 that noise used to earn, nor a burst of velocity."""
-    from imimic_gym.estimators.don import DON
+    from imimic_gym.estimators.don.one_link import DON
 
     rng = np.random.default_rng(0)
     noise = [rng.integers(0, 256, (240, 320, 3), dtype=np.uint8) for _ in range(30)]
