@@ -4,11 +4,14 @@
   in perspective). The shoulder sits on its pixel's ray at the depth where the shoulders'
   2-D distance (or, if shorter in depth, the torso's) matches a person's width; each bone's
   far end sits on its pixel's ray at the bone's length from its start: a quadratic in the
-  depth whose two roots are the bone turned toward or away from the camera. The pose
-  model's depth order picks the root, and where it barely tells them apart, continuity
-  with the previous frame does. A ray that misses the sphere (the 2-D bone is longer than
-  the length allows) takes its point nearest the bone's start: the bone lies in the image
-  plane and the length was too short, which `BoneLengthEstimator` learns from.
+  depth whose two roots are the bone turned toward or away from the camera. In
+  `lift_arm` the pose model's depth order picks the root, and where it barely tells them
+  apart, continuity with the previous frame does. `ArmLifter` instead keeps a Bayes
+  filter per arm bone on its signed share between the roots (`ShareFilter`: the bone's
+  2-D length and the model's depth as noisy readings) and takes its posterior mean. A
+  ray that misses the sphere (the 2-D bone is longer than the length allows) takes its
+  point nearest the bone's start: the bone lies in the image plane and the length was
+  too short, which `BoneLengthEstimator` learns from.
 - `from_depth`: keypoints back-projected through a metric depth image (an RGB-D camera).
 - `from_world_landmarks`: the pose model's own 3-D landmarks, moved into the camera frame
   (the baseline).
