@@ -23,7 +23,7 @@ from tests.estimators.pose.test_planar import ScriptedModel
 
 CAMERA = Intrinsics.from_fovy(45, 640, 480)
 FRAME = np.zeros((480, 640, 3), np.uint8)
-EXACT = {"keypoint_noise": 0.0, "smoothing": None, "refine": False}
+EXACT = {"keypoint_noise": 0.0, "smoothing": None, "refine": False, "share_filter": None}
 
 
 @pytest.fixture(scope="module")
