@@ -30,8 +30,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import imimic_gym.spatial.lift as lift_module
-from imimic_gym.estimators.pose import ArmChooser
-from imimic_gym.estimators.pose3d import arm_keypoints
+from imimic_gym.estimators.pose.planar import ArmChooser
+from imimic_gym.estimators.pose.spatial import arm_keypoints
 from imimic_gym.metrics import direction_error_deg
 from imimic_gym.spatial import ArmPose, Intrinsics
 from imimic_gym.spatial.lift import ArmLifter, BoneLengths, ShareFilter, from_world_landmarks
@@ -57,7 +57,7 @@ def cache(folder: Path, scenario: str, seed: int) -> dict[str, Any]:
             return dict(pickle.load(file))
     from imimic_gym.clips.cache import load_clip
     from imimic_gym.clips.scenarios import get_scenario
-    from imimic_gym.estimators.pose_model import PoseModel
+    from imimic_gym.estimators.pose.model import PoseModel
 
     clip = load_clip(get_scenario(scenario).replace(seed=seed), progress=False)
     assert clip.truth is not None
