@@ -315,7 +315,8 @@ def test_a_board_crossing_the_first_movement_does_not_fix_a_wrong_pivot() -> Non
     don = DON(fps=clip.fps, reference_direction=spec.reference_direction,
               joint_range=spec.joint_ranges[0])
     angles = np.array([e.angles for e in don.run(clip.frames)])
-    assert angle_rmse_deg(angles[15:], clip.truth.angles[15:]) < 30.0
+    # measured 2.1 deg on seed 100 (issue 40: about 2x)
+    assert angle_rmse_deg(angles[15:], clip.truth.angles[15:]) < 4.5
 
 
 @pytest.mark.parametrize("search_when_lost", [False, True])
