@@ -137,7 +137,7 @@ def test_shipped_checkpoints_load_and_see_the_arm() -> None:
     clip = render_clip(spec, progress=False)
     estimates = CNNEstimator(n_links=1).run(clip.frames)
     angles = np.array([e.angles for e in estimates])
-    assert angle_rmse_deg(angles, clip.truth.angles) < 15.0
+    assert angle_rmse_deg(angles, clip.truth.angles) < 11.5  # measured 5.8 deg (issue 40: ~2x)
     assert all(np.isfinite(e.omega).all() and e.trust == 1.0 for e in estimates)
     assert estimates[-1].keypoints.shape == (2, 2)
 
