@@ -34,8 +34,9 @@ def test_cnn_observation_follows_two_links_better_than_a_still_arm() -> None:
                                   n_frames=45), keep_frame=False)
     trajectory = run_episode(env, PDController(env, EstimateTarget(env)), seed=0)
     assert env.observation_space["estimate"].shape == (10,)
-    # measured 23.5 deg against the still arm's 29.8 on clip seed 7: 21% better; the bound
-    # asks for about half that gain (issue 40)
+    # measured 23.5 deg against the still arm's 29.8 on clip seed 7: 21% better (the ratio
+    # 0.35-0.79 on seeds 7-11, the elbow 14-31 deg off: the shipped 2-link CNN is weak);
+    # the bound asks for about half that gain (issue 40)
     assert trajectory.metrics()["rmse_deg"] < 0.9 * still_arm_rmse(env, trajectory)
 
 
