@@ -76,7 +76,7 @@ def test_the_scripted_controllers_drive_the_so101_from_an_estimate() -> None:
 
     env = TruthObservation(make(n_frames=40), keep_frame=False)
     metrics = run_episode(env, PositionController(env), seed=0).metrics()
-    assert metrics["rmse_deg"] < 3.0
+    assert metrics["rmse_deg"] < 3.0  # measured 1.99 deg on clip seed 0 (left at 1.5x)
 
 
 def test_it_runs_in_a_vector_env_and_replays_under_one_seed() -> None:
