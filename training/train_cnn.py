@@ -335,11 +335,12 @@ def main() -> None:
     gen = torch.Generator().manual_seed(args.seed)
 
     # Every input is read before the run folder exists: a mistake in one leaves no folder.
+    # The checkpoint to start from before the images: those may be regenerated (minutes).
     split_train, test_arms = load_split(args)
+    model = load_model(args.init) if args.init else CNNRefiner(NetConfig())
     train_arms = split_train[: args.limit] if args.limit else split_train
     train_images = load_images(train_arms, args.images)
     test_images = load_images(test_arms, args.images)
-    model = load_model(args.init) if args.init else CNNRefiner(NetConfig())
     x, y = arrays(train_arms, train_images, model.config)
     print(f"{run_name}: {len(x)} training, {len(test_arms)} test images, input "
           f"{model.config.input_hw}, {sum(p.numel() for p in model.parameters())} weights")
