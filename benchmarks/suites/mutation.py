@@ -43,7 +43,8 @@ MODULES: dict[str, tuple[str, tuple[str, ...]]] = {
     "kinematics": ("imimic_gym/kinematics.py", ("tests/test_kinematics.py",)),
     "directions": ("imimic_gym/retarget/directions.py", ("tests/retarget/test_directions.py",)),
     "mapping": ("imimic_gym/retarget/mapping.py", ("tests/retarget/test_mapping.py",)),
-    "lift": ("imimic_gym/spatial/lift.py", ("tests/spatial/test_lift.py",)),
+    "lift": ("imimic_gym/spatial/lift.py", ("tests/spatial/test_lift.py",
+                                            "tests/spatial/test_lift_parts.py")),
     "arm_pose": ("imimic_gym/spatial/arm_pose.py", ("tests/spatial/test_arm_pose.py",)),
 }
 PARTS = tuple(MODULES)
