@@ -271,3 +271,120 @@ def test_rmse_and_max_error_wrap_the_error() -> None:
     assert angle_rmse_deg(estimate, truth) == pytest.approx(2.0)
     assert max_error_deg(estimate, truth) == pytest.approx(2.0)
     assert max_error_deg(np.radians([1.0, -4.0]), np.zeros(2)) == pytest.approx(4.0)
+
+
+def test_the_bootstrap_is_the_seeded_percentile_interval_of_its_resamples() -> None:
+    """The documented recipe by hand: 2000 resamples with replacement drawn by
+    default_rng(seed), the statistic of each, the interval's percentiles."""
+    from imimic_gym.metrics import bootstrap_interval
+
+    values = np.random.default_rng(9).normal(size=40)
+    for level, seed in ((0.95, 0), (0.8, 3)):
+        picks = np.random.default_rng(seed).integers(0, 40, size=(2000, 40))
+        stats = values[picks].mean(axis=1)
+        tail = 100 * (1 - level) / 2
+        expected = tuple(np.percentile(stats, [tail, 100 - tail]))
+        assert bootstrap_interval(values, level=level, seed=seed) == pytest.approx(
+            expected, abs=1e-15)
+    assert bootstrap_interval([2.5]) == (2.5, 2.5)  # one value: no spread
+    assert bootstrap_interval(np.arange(10.0), np.min)[0] == 0.0  # every value drawn
+
+
+def test_float32_and_integer_inputs_give_the_float64_figures() -> None:
+    """Every metric converts its input to float64 first: float32 or integer input gives
+    the float64 figure to the bit."""
+    from imimic_gym.metrics import (
+        bootstrap_interval,
+        direction_error_deg,
+        pcp,
+        spatial_metrics,
+        with_interval,
+    )
+
+    rng = np.random.default_rng(11)
+    a64, b64 = rng.normal(size=(50, 3)), rng.normal(size=(50, 3))
+    a32, b32 = a64.astype(np.float32), b64.astype(np.float32)
+    a, b = a32.astype(np.float64), b32.astype(np.float64)
+    assert direction_error_deg(a32, b32).tolist() == direction_error_deg(a, b).tolist()
+    assert direction_error_deg(a32, b).tolist() == direction_error_deg(a, b32).tolist() == \
+        direction_error_deg(a, b).tolist()
+    values = rng.normal(size=30).astype(np.float32)
+    assert bootstrap_interval(values) == bootstrap_interval(values.astype(np.float64))
+    assert with_interval(values) == with_interval(values.astype(np.float64))
+    angles = np.cumsum(rng.normal(size=(20, 2)), axis=0).astype(np.float32)
+    assert jerk_rms(angles, 30.0) == jerk_rms(angles.astype(np.float64), 30.0)
+    flexion = rng.uniform(0, 2, 50).astype(np.float32)
+    units = a / np.linalg.norm(a, axis=1, keepdims=True)
+    as32 = spatial_metrics(units, units, flexion, units, units, np.ones(50), np.ones(50, bool))
+    as64 = spatial_metrics(units, units, flexion.astype(np.float64), units, units,
+                           np.ones(50), np.ones(50, bool))
+    assert as32 == as64
+    # PCP on integer pixels: a wrist 3-4-5 px off a 10 px limb is at exactly half.
+    truth = np.array([[[0, 0], [10, 0]]])
+    predicted = np.array([[[0, 0], [13, 4]]])
+    assert pcp(predicted, truth, (0, 1)) == 1.0
+    truth32, predicted32 = truth * np.float32(0.1), predicted * np.float32(0.1)
+    assert pcp(predicted32, truth32, (0, 1)) == pcp(predicted32.astype(np.float64),
+                                                     truth32.astype(np.float64), (0, 1))
+
+
+def test_jerk_of_several_joints_is_over_all_of_them() -> None:
+    fps = 10.0
+    t = np.arange(8) / fps
+    angles = np.stack([np.radians(1.0) * t ** 3, np.radians(2.0) * t ** 3], axis=1)
+    # Third derivatives 6 and 12 deg/s^3: their RMS.
+    assert jerk_rms(angles, fps) == pytest.approx(np.sqrt((36 + 144) / 2), rel=1e-9)
+
+
+def test_recovery_measures_the_error_from_the_truth_up_to_its_threshold() -> None:
+    fps = 10.0
+    truth = np.radians([[40.0], [40.0], [40.0], [40.0]])
+    robot = np.radians([[40.0], [0.0], [33.0], [40.0]])
+    occlusion = np.array([0.5, 0.0, 0.0, 0.0])
+    assert recovery_time_s(robot, truth, occlusion, fps) == pytest.approx(0.2)
+    edge = float(np.degrees(np.abs(robot[2, 0] - truth[2, 0])))  # 7 degrees, as computed
+    assert recovery_time_s(robot, truth, occlusion, fps, threshold_deg=edge) == \
+        pytest.approx(0.1)
+
+
+def test_spatial_metrics_read_any_truthy_flags_and_take_the_95th_percentile() -> None:
+    from imimic_gym.metrics import spatial_metrics
+
+    t = 21
+    down = np.tile([0.0, 1.0, 0.0], (t, 1))
+    flexion_error = np.radians(np.arange(t, dtype=float))  # 0..20 degrees
+    read = [1] * 20 + [0]
+    out = spatial_metrics(down, down, 1.0 + flexion_error, down, down, np.ones(t), read)
+    assert (out["frames"], out["frames_without_reading"]) == (21, 1)
+    assert out["elbow_flexion_p95_deg"] == pytest.approx(np.percentile(np.arange(20.0), 95))
+
+
+def test_lag_centres_each_joint_on_its_own_mean() -> None:
+    """Joints far from zero, each by its own offset: the lag is the same as centred."""
+    t = np.arange(240) / 30.0
+    one = 100.0 + np.sin(2 * np.pi * 0.5 * t)
+    two = -100.0 + np.sin(2 * np.pi * 0.2 * t + 1.0)
+    truth = np.stack([one, two], axis=1)
+    follower = np.stack([np.roll(one, 4) + 3.0, np.roll(two, 4) - 7.0], axis=1)
+    assert lag_frames(truth, follower) == 4
+    assert lag_frames(truth - [100.0, -100.0], follower) == 4
+
+
+def test_lag_looks_30_frames_each_way_by_default() -> None:
+    t = np.arange(600) / 30.0
+    truth = np.sin(2 * np.pi * 0.1 * t)  # a 300-frame period
+    assert lag_frames(truth, np.roll(truth, 40)) == 30
+    assert lag_frames(truth, np.roll(truth, -40)) == -30
+
+
+def test_lag_takes_the_first_of_exactly_equal_peaks() -> None:
+    alternating = np.tile([1.0, -1.0], 10)  # every even shift fits exactly as well
+    assert lag_frames(alternating, alternating, max_lag=4) == -4
+
+
+def test_lag_normalises_each_shift_by_its_frames_with_truth() -> None:
+    """Truth at frames 2 and 3 only: the shift of -3 overlaps one of them, whose one
+    product (not halved) beats every other shift's."""
+    truth = np.array([np.nan, np.nan, 2.0, 1.0, np.nan])
+    follower = np.array([-2.0, -2.0, -2.0, 3.0, -2.0])
+    assert lag_frames(truth, follower) == -3

@@ -98,3 +98,22 @@ def test_exp4_has_no_verdict_and_its_note_in_the_table() -> None:
     assert row == ("| exp4 | `exp4-hand` | don | position | 3.46 | 1.0 | 0.25 | forearm, thumb, "
                    "index finger tracked | - | DON for several links (LinkedDON); per joint in "
                    "RESULTS.md |")
+
+
+def test_an_eta_range_verdict_counts_both_ends_inside() -> None:
+    """The verdict builder itself, on a range of its own (the experiments' verdicts are
+    built when the module loads)."""
+    from imimic_gym.paper import _eta_in
+
+    verdict = _eta_in(0.2, 0.6)
+    assert verdict(figures(mean_trust=0.2)) == "eta 0.20, inside the paper's 0.2-0.6"
+    assert verdict(figures(mean_trust=0.6)) == "eta 0.60, inside the paper's 0.2-0.6"
+    assert verdict(figures(mean_trust=0.19)) == "eta 0.19, outside the paper's 0.2-0.6"
+    assert verdict(figures(mean_trust=0.61)) == "eta 0.61, outside the paper's 0.2-0.6"
+
+
+def test_a_learned_controller_first_still_leaves_exp4_its_servo() -> None:
+    configs = paper_configs((1,), controllers=("learned", "position"))
+    assert [(c.scenario, c.controller) for c in configs][-3:] == [
+        ("exp3-forearm-high", "learned"), ("exp3-forearm-high", "position"),
+        ("exp4-hand", "position")]

@@ -83,17 +83,20 @@ class ScriptedEnv(gym.Env):
         self.with_estimate, self.stream_ends_at = with_estimate, stream_ends_at
         self.steps: list[np.ndarray] = []
         self.i, self.qpos = 0, np.zeros(1)
+        self.reset_with: tuple[int | None, dict[str, Any] | None] | None = None
 
     def frame(self) -> tuple[dict[str, Any], dict[str, Any]]:
         obs: dict[str, Any] = {"qpos": self.qpos.copy()}
         if self.with_estimate:
             obs["estimate"] = np.array([9.0, 9.0, 9.0, 9.0, 0.1 * self.i, 0.0])
-        target = self.truth[self.i]
-        return obs, {"frame_index": self.i, "target_angles": np.array([target]),
+        target = self.truth[self.i]  # NaN: no label (the env still gives a stale target)
+        return obs, {"frame_index": self.i,
+                     "target_angles": np.array([-1.0 if np.isnan(target) else target]),
                      "occlusion": self.occlusion[self.i], "has_truth": not np.isnan(target)}
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         self.i, self.qpos = 0, np.zeros(1)
+        self.reset_with = (seed, options)
         return self.frame()
 
     def step(self, action: np.ndarray):
@@ -136,7 +139,9 @@ def test_run_episode_logs_every_frame_and_leaves_frames_without_truth_nan() -> N
 
     env = ScriptedEnv([0.0, 0.1, np.nan, 0.3], [0.0, 0.5, 0.0, 0.0])
     controller, watcher = Stepper(), Watcher()
-    trajectory = run_episode(env, controller, seed=0, record=True, observers=[watcher])
+    trajectory = run_episode(env, controller, seed=7, record=True, options={"speed": 2},
+                             observers=[watcher])
+    assert env.reset_with == (7, {"speed": 2})
     np.testing.assert_allclose(trajectory.time, [0.0, 0.1, 0.2, 0.3])
     np.testing.assert_allclose(trajectory.robot[:, 0], [0.0, 0.1, 0.2, 0.3])
     np.testing.assert_array_equal(trajectory.target[:, 0], [0.0, 0.1, np.nan, 0.3])
@@ -199,3 +204,33 @@ def test_a_trajectory_without_truth_has_no_errors_and_one_frame_no_rate() -> Non
                      reward=np.ones(1), occlusion=np.zeros(1))
     assert one.metrics()["rmse_deg"] == pytest.approx(np.degrees(1.0))
     assert one.metrics()["frames"] == 1
+
+
+def test_a_log_fed_by_hand_keeps_every_frame_with_its_target() -> None:
+    """A vector env's loop calls `add` itself: no frames recorded, time in frames (fps 1)
+    until told, and a frame whose info has no has_truth counts as truth."""
+    from imimic_gym.rollout import Step, TrajectoryLog
+
+    log = TrajectoryLog()
+    assert log.record is False
+    for i in (3, 4):
+        info = {"frame_index": i, "target_angles": np.array([0.1 * i]), "occlusion": 0.0}
+        log.add(Step({"qpos": np.array([0.0])}, info, 0.0, np.zeros(1), 0.0))
+    trajectory = log.trajectory()
+    np.testing.assert_array_equal(trajectory.time, [3.0, 4.0])
+    np.testing.assert_allclose(trajectory.target[:, 0], [0.3, 0.4])
+    assert trajectory.frames == [] and trajectory.trust is None
+
+
+def test_the_frame_rate_is_the_step_between_the_first_two_times() -> None:
+    """A clip cut from frame 5 on (times 0.5, 0.6, ...) at 10 frames/s: occluded to its
+    second frame and never recovered, which counts the rest of the clip at 10 frames/s."""
+    from imimic_gym.rollout import Trajectory
+
+    for frames in (2, 5):
+        trajectory = Trajectory(time=(5 + np.arange(frames)) / 10.0,
+                                target=np.zeros((frames, 1)),
+                                robot=np.radians(np.full((frames, 1), 30.0)),
+                                reward=np.zeros(frames),
+                                occlusion=np.r_[0.5, np.zeros(frames - 1)])
+        assert trajectory.metrics()["recovery_s"] == pytest.approx((frames - 1) / 10.0)

@@ -127,3 +127,20 @@ def test_a_correction_two_frames_in_keeps_the_frame_before() -> None:
     v, a = path.correct([1.5])
     assert v[0] == pytest.approx(0.5) and a[0] == pytest.approx(0.5)
     assert path.location == (1.5,) and len(path.V) == len(path.A) == 2
+
+
+def test_by_default_the_window_keeps_ten_frames_and_alpha_averages_three() -> None:
+    path = PathEstimator(1, fps=0.5)  # a slow video is still a video
+    for location in (0.0, 0.3, 0.6, 1.2, 2.1):  # v: 0, 0.3, 0.3, 0.6, 0.9; a: 0, 0.3, 0, 0.3, 0.3
+        path.update([location])
+    np.testing.assert_allclose(path.alpha(), [(0.3 + 0.3 + 0.0) / 3 * 0.25], rtol=1e-12)
+    np.testing.assert_allclose(path.omega(), [(0.9 + 0.6) / 2 * 0.5], rtol=1e-12)
+    for _ in range(10):
+        path.update([2.1])
+    assert len(path.V) == len(path.A) == 10
+
+
+def test_correcting_before_any_reading_is_a_first_reading() -> None:
+    path = PathEstimator(2, fps=10.0)
+    assert path.correct([0.5, -0.5]) == ((0.0, 0.0), (0.0, 0.0))
+    assert path.location == (0.5, -0.5) and len(path.V) == 1
