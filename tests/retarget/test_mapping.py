@@ -64,8 +64,12 @@ def test_only_a_rotation_is_a_mapping(rows):
 
 def test_a_rotation_rounded_within_1e_9_is_a_mapping():
     c, s = math.cos(0.3), math.sin(0.3)
-    rounded = ((c + 1e-10, -s, 0.0), (s, c, 0.0), (0.0, 0.0, 1.0))
-    assert PersonToRobot("rounded", rounded, "").name == "rounded"
+    for rounding in (1e-10, -1e-10):  # its determinant a hair above 1, then below
+        rounded = ((c + rounding, -s, 0.0), (s, c, 0.0), (0.0, 0.0, 1.0))
+        assert PersonToRobot("rounded", rounded, "").name == "rounded"
+    sheared = ((1.0, 0.0, 0.0), (5e-9, 1.0, 0.0), (0.0, 0.0, 1.0))  # rows 5e-9 off square
+    with pytest.raises(ValueError, match="'sheared': robot_from_arm must be a"):
+        PersonToRobot("sheared", sheared, "")
 
 
 def test_the_mappings_are_named_and_described_for_help():
