@@ -152,3 +152,18 @@ def test_a_bad_side_shape_or_trust_is_refused_by_name() -> None:
             ArmPose("left", RIGHT, np.ones(7), np.zeros((7, 2)), trust=trust)
     edge = ArmPose("left", RIGHT.tolist(), [1] * 7, np.zeros((7, 2), np.float32), trust=1.0)
     assert edge.points.dtype == edge.confidence.dtype == edge.pixels.dtype == np.float64
+
+
+def test_unit_takes_integers_and_cuts_off_at_1e_12() -> None:
+    np.testing.assert_allclose(unit([0, 3, 4]), [0, 0.6, 0.8])
+    np.testing.assert_array_equal(unit([1e-12, 0, 0]), [0, 0, 0])
+
+
+def test_a_tilted_torso_along_the_shoulders_takes_the_cameras_up_square_to_them() -> None:
+    points = RIGHT.copy()
+    points[4] = [0.2, -0.4, 2.0]  # the other shoulder higher: shoulders tilted 45 degrees
+    points[5:] = [[0.4, -0.6, 2.0], [0.4, -0.6, 2.0]]  # hips on the shoulders' line
+    frame = pose("right", points).arm_frame()
+    np.testing.assert_allclose(frame @ frame.T, np.eye(3), atol=1e-12)
+    np.testing.assert_allclose(frame[1], [-math.sqrt(0.5), math.sqrt(0.5), 0], atol=1e-12)
+    np.testing.assert_allclose(frame[2], [-math.sqrt(0.5), -math.sqrt(0.5), 0], atol=1e-12)
