@@ -40,8 +40,8 @@ def test_bone_lengths_are_an_average_adults_and_scale_with_the_shoulders() -> No
 @pytest.mark.parametrize("name", ["shoulder_width", "torso", "upper_arm", "forearm", "hand"])
 @pytest.mark.parametrize("bad", [-0.01, math.nan, math.inf])
 def test_a_bone_length_that_is_not_a_length_is_refused_by_name(name: str, bad: float) -> None:
-    with pytest.raises(ValueError, match=rf"BoneLengths\.{name} must be a length in metres "
-                                         rf"\(>= 0\), got {bad!r}"):
+    with pytest.raises(ValueError, match=rf"^BoneLengths\.{name} must be a length in metres "
+                                         rf"\(>= 0\), got {bad!r}$"):
         BoneLengths(**{name: bad})
 
 
@@ -201,7 +201,7 @@ def test_the_neutral_pose_is_the_average_adult_hanging_its_arms(side: str) -> No
     near = neutral_pose(side, CAMERA, BoneLengths.from_shoulder_width(0.72), depth=1.0)
     np.testing.assert_allclose(near.points[:, 2], 1.0)
     np.testing.assert_allclose(near.points[1] - near.points[0], [0, 0.58, 0], atol=1e-12)
-    with pytest.raises(ValueError, match="side must be 'left' or 'right', got 'up'"):
+    with pytest.raises(ValueError, match=r"^side must be 'left' or 'right', got 'up'$"):
         neutral_pose("up", CAMERA)
 
 
@@ -278,3 +278,24 @@ def test_from_depth_solves_a_bone_off_its_length_beyond_the_tolerance() -> None:
         measured = np.linalg.norm(CAMERA.back_project(pixels[2], 2.0 + behind) - elbow)
         assert forearm == pytest.approx(0.25 if solved else measured, abs=1e-6)
         assert pose.confidence[2] == 1.0
+
+
+def test_the_adapters_clip_confidences_and_refuse_bad_keypoints_by_name() -> None:
+    """`from_world_landmarks` and `from_depth` check their keypoints as the lift does."""
+    pixels = square_person(3.0)
+    world = CAMERA.back_project(pixels, np.full(7, 3.0))
+    confidence = np.array([1.5, 0.9, 0.8, -0.2, 1.0, 1.0, 1.0])
+    pose = from_world_landmarks("left", world, pixels.tolist(), confidence, CAMERA)
+    np.testing.assert_array_equal(pose.confidence, [1.0, 0.9, 0.8, 0.0, 1.0, 1.0, 1.0])
+    assert pose.trust == 0.8
+    with pytest.raises(ValueError, match=r"^a lift needs pixels \(7, 2\) and confidence "
+                                         r"\(7,\), got \(7, 2\) and \(6,\)$"):
+        from_world_landmarks("left", world, pixels, np.ones(6), CAMERA)
+    with pytest.raises(ValueError, match=r"^a lift needs finite pixels and confidences$"):
+        from_world_landmarks("left", world, pixels, np.r_[np.ones(6), np.nan], CAMERA)
+    with pytest.raises(ValueError, match=r"^world landmarks must be finite with shape \(7, 3\), "
+                                         r"got \(7, 3\)$"):
+        from_world_landmarks("left", np.full((7, 3), np.inf), pixels, np.ones(7), CAMERA)
+    with pytest.raises(ValueError, match=r"^from_depth: the depth image is \(10, 10\), the "
+                                         r"intrinsics are for \(480, 640\)$"):
+        from_depth("left", pixels, np.ones(7), np.ones((10, 10)), CAMERA)
