@@ -259,5 +259,6 @@ leaves them out. Bar: {share(data["target"])} killed per module.
                "equivalent", "killed", "killed, equivalent left out", "80% bar",
                "time (s)"], rows)}
 
-{missed_text} A full run took {total / 60:.0f} minutes of wall time.
+{missed_text} Time: each module's latest run, wall clock on the shared machine; a run of
+every module takes their sum, {total / 60:.0f} minutes.
 """
