@@ -251,9 +251,10 @@ it). Machine: {m["cpu"]}, {m["cores"]} cores, Python {m["python"]}, shared with 
 (`MODULES` in `benchmarks/suites/mutation.py`), and of those only the ones that call the
 mutated function; a mutant that exceeds (covering tests' time + {data["timeout_constant"]:g}
 s) x {data["timeout_multiplier"]:g} x 2 of CPU time counts as a timeout. "Killed" below is
-killed or timed out, over all mutants; mutants no test can tell from the original
-(equivalent, each with its reason in the JSON) count as not killed, and the last share
-leaves them out. Bar: {share(data["target"])} killed per module.
+killed or timed out, over all mutants; "not covered": no test of the module calls the
+mutated function. Survivors no test could tell from the original ("equivalent", counted
+among the survivors; each with its reason in the JSON) count as not killed, and the last
+share leaves them out. Bar: {share(data["target"])} killed per module.
 
 {quick}{table(["module", "mutants", "killed", "timeouts", "survived", "not covered",
                "equivalent", "killed", "killed, equivalent left out", "80% bar",
