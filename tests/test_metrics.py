@@ -319,6 +319,10 @@ def test_float32_and_integer_inputs_give_the_float64_figures() -> None:
     as64 = spatial_metrics(units, units, flexion.astype(np.float64), units, units,
                            np.ones(50), np.ones(50, bool))
     assert as32 == as64
+    true32 = rng.uniform(0, 2, 50).astype(np.float32)
+    assert spatial_metrics(units, units, flexion, units, units, true32, np.ones(50, bool)) == \
+        spatial_metrics(units, units, flexion.astype(np.float64), units, units,
+                        true32.astype(np.float64), np.ones(50, bool))
     # PCP on integer pixels: a wrist 3-4-5 px off a 10 px limb is at exactly half.
     truth = np.array([[[0, 0], [10, 0]]])
     predicted = np.array([[[0, 0], [13, 4]]])

@@ -67,6 +67,8 @@ def test_realtime_never_sleeps_behind_schedule(clock: FakeClock) -> None:
 def test_without_realtime_the_loop_never_sleeps(clock: FakeClock) -> None:
     asked = asked_times(gym.make("ImitateVideo-v0", n_frames=5), hold, realtime=False)
     assert clock.sleeps == [] and asked == [100.0] * 5
+    list(episode(gym.make("ImitateVideo-v0", n_frames=5), hold, seed=0))  # the default
+    assert clock.sleeps == []
 
 
 class ScriptedEnv(gym.Env):

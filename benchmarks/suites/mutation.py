@@ -58,6 +58,8 @@ _RESHAPE = "numpy's reshape infers a dimension given as any negative number, -2 
 _ONLY_SHIFT_0 = ("with max_lag 0 the loop tries shift 0 alone and returns it: the early "
                  "return gives the same 0")
 _SHIFT_0_SLICES = "at shift 0 both branches slice the whole signals"
+_PROMOTED = ("this input only ever meets the other, still float64, in arithmetic, which "
+             "promotes it to float64 first: the same numbers")
 _REAL_MATMUL = ("the matrix (the mapping's, the arm frame's) is float64, so numpy's matmul "
                 "promotes any real input to float64 first: the same numbers")
 EQUIVALENT: dict[str, str] = {
@@ -81,6 +83,12 @@ EQUIVALENT: dict[str, str] = {
     f"{_METRICS}lag_frames__mutmut_60": _ONLY_SHIFT_0,
     f"{_METRICS}lag_frames__mutmut_76": _SHIFT_0_SLICES,
     f"{_METRICS}lag_frames__mutmut_77": _SHIFT_0_SLICES,
+    f"{_METRICS}direction_error_deg__mutmut_3": _PROMOTED,
+    f"{_METRICS}direction_error_deg__mutmut_5": _PROMOTED,
+    f"{_METRICS}direction_error_deg__mutmut_7": _PROMOTED,
+    f"{_METRICS}direction_error_deg__mutmut_9": _PROMOTED,
+    f"{_METRICS}pcp__mutmut_4": _PROMOTED,
+    f"{_METRICS}pcp__mutmut_6": _PROMOTED,
     f"{_ROLLOUT}xǁTrajectoryLogǁon_step__mutmut_7": "typing.cast does nothing at run time",
     f"{_ROLLOUT}xǁTrajectoryǁmetrics__mutmut_12": "with fewer than two frames no metric reads "
                                                   "the frame rate (jerk needs 4, recovery 2)",
