@@ -51,8 +51,13 @@ wheel-check: setup
 		--frames 30 --out eval > eval.log
 	@echo "wheel-check: the installed wheel ran demo --estimator cnn and eval --controller learned"
 
-bench: setup
+# The benchmarks also need the `mutation` extra (mutmut, for the mutation suite).
+bench: setup $(VENV)/.mutation
 	bash benchmarks/run_all.sh
+
+$(VENV)/.mutation: $(VENV)/.installed
+	$(BIN)/python -m pip install --quiet -e ".[mutation]"
+	touch $@
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache .ruff_cache

@@ -39,6 +39,8 @@ SUITES = {
             "photos and videos (../shared/realdata), and on rendered clips",
     "spatial": "the arm in 3-D: pose3d, pose-world and pose3d on depth against the rendered "
                "3-D truth, and the SO-101 copying it",
+    "mutation": "mutmut over the modules whose numbers users read, each with its own tests: "
+                "the share of planted bugs the tests catch, and the ones they miss",
 }
 
 

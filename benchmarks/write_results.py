@@ -17,7 +17,7 @@ RESULTS = HERE / "results"
 DECISIONS = HERE.parent / "docs" / "decisions"
 # The order of the sections: every suite of `run.py`, the headline figures first.
 ORDER = ("accuracy", "tracking", "paper", "speed", "cnn", "real", "spatial", "scaleout",
-         "fresh_clone")
+         "fresh_clone", "mutation")
 assert sorted(ORDER) == sorted(SUITES), "write_results.ORDER must list run.SUITES"
 
 

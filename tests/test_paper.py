@@ -4,7 +4,7 @@ from typing import Any
 
 import pytest
 
-from imimic_gym.paper import PAPER_EXPERIMENTS, paper_table
+from imimic_gym.paper import PAPER_EXPERIMENTS, paper_configs, paper_table
 
 
 def experiment(name: str):
@@ -69,3 +69,51 @@ def test_the_table_puts_each_verdict_on_its_experiments_row() -> None:
                        "  |")
     assert rows[4].endswith("| eta 0.80, outside the paper's 0.3-0.4 |  |")
     assert rows[4].startswith("| exp3 high | `exp3-forearm-high` | don | position | 6.00 |")
+
+
+def test_every_experiment_runs_with_each_controller_and_exp4_only_with_the_servo() -> None:
+    """The learned tracker drives one joint: the multi-link exp4 runs with the position
+    controller alone."""
+    configs = paper_configs((3, 4), frames=50)
+    assert [(c.scenario, c.estimator, c.controller) for c in configs] == [
+        (scenario, "don", controller)
+        for scenario in ("exp1-noisy-fast", "exp2-servo", "exp3-forearm-none",
+                         "exp3-forearm-low", "exp3-forearm-high")
+        for controller in ("position", "learned")] + [("exp4-hand", "don", "position")]
+    assert {(c.seeds, c.frames) for c in configs} == {((3, 4), 50)}
+    learned = paper_configs((7,), controllers=("learned",))
+    assert [c.scenario for c in learned] == ["exp1-noisy-fast", "exp2-servo",
+                                             "exp3-forearm-none", "exp3-forearm-low",
+                                             "exp3-forearm-high"]
+    assert {(c.seeds, c.frames) for c in learned} == {((7,), None)}
+
+
+def test_exp4_has_no_verdict_and_its_note_in_the_table() -> None:
+    head, rule, row = paper_table([{"scenario": "exp4-hand", "controller": "position",
+                                    "estimator": "don", "mean": figures(3.456, 0.25)}]
+                                  ).splitlines()
+    assert head == ("| experiment | scenario | estimator | controller | RMSE (deg) | "
+                    "lag (frames) | mean eta | paper | here | note |")
+    assert rule == "|" + "---|" * 10
+    assert row == ("| exp4 | `exp4-hand` | don | position | 3.46 | 1.0 | 0.25 | forearm, thumb, "
+                   "index finger tracked | - | DON for several links (LinkedDON); per joint in "
+                   "RESULTS.md |")
+
+
+def test_an_eta_range_verdict_counts_both_ends_inside() -> None:
+    """The verdict builder itself, on a range of its own (the experiments' verdicts are
+    built when the module loads)."""
+    from imimic_gym.paper import _eta_in
+
+    verdict = _eta_in(0.2, 0.6)
+    assert verdict(figures(mean_trust=0.2)) == "eta 0.20, inside the paper's 0.2-0.6"
+    assert verdict(figures(mean_trust=0.6)) == "eta 0.60, inside the paper's 0.2-0.6"
+    assert verdict(figures(mean_trust=0.19)) == "eta 0.19, outside the paper's 0.2-0.6"
+    assert verdict(figures(mean_trust=0.61)) == "eta 0.61, outside the paper's 0.2-0.6"
+
+
+def test_a_learned_controller_first_still_leaves_exp4_its_servo() -> None:
+    configs = paper_configs((1,), controllers=("learned", "position"))
+    assert [(c.scenario, c.controller) for c in configs][-3:] == [
+        ("exp3-forearm-high", "learned"), ("exp3-forearm-high", "position"),
+        ("exp4-hand", "position")]

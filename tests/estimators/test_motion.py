@@ -69,3 +69,78 @@ def test_two_link_torque_produces_the_acceleration_it_was_asked_for() -> None:
     data.qpos[:], data.qvel[:], data.qfrc_applied[:] = angles, omega, torque
     mujoco.mj_forward(model, data)
     np.testing.assert_allclose(data.qacc, alpha, atol=1e-6)
+
+
+@pytest.mark.parametrize("fps", [0, -30.0, float("nan"), float("inf"), True, "30"])
+def test_a_frame_rate_that_is_not_a_positive_finite_number_is_refused(fps: object) -> None:
+    with pytest.raises(ValueError, match=f"fps must be a positive, finite number of frames "
+                                         f"per second, got {fps!r}"):
+        PathEstimator(1, fps=fps)  # type: ignore[arg-type]
+
+
+def test_velocity_and_acceleration_are_wrapped_differences_per_frame() -> None:
+    """The second joint crosses +-pi: its velocity is the short way round."""
+    path = PathEstimator(2, fps=10.0)
+    assert path.update([0.0, 3.1]) == ((0.0, 0.0), (0.0, 0.0))
+    v, a = path.update(np.array([0.1, -3.1]))
+    np.testing.assert_allclose(v, [0.1, 2 * np.pi - 6.2], atol=1e-12)
+    np.testing.assert_allclose(a, v, atol=1e-12)
+    v2, a2 = path.update(np.array([0.3, -3.0]))
+    np.testing.assert_allclose(v2, [0.2, 0.1], atol=1e-12)
+    np.testing.assert_allclose(a2, [0.1, 0.1 - (2 * np.pi - 6.2)], atol=1e-12)
+    assert all(type(x) is float for x in (*v2, *a2))
+
+
+def test_omega_and_alpha_average_the_newest_velocities_and_accelerations() -> None:
+    """omega: the mean of the last two v times fps; alpha: of the last three a times
+    fps^2; fewer while the estimator fills, zeros before the first frame."""
+    path = PathEstimator(1, fps=10.0, window=3)
+    np.testing.assert_array_equal(path.omega(), [0.0])
+    np.testing.assert_array_equal(path.alpha(), [0.0])
+    path.update([0.0])
+    np.testing.assert_array_equal(path.omega(), [0.0])
+    path.update([0.1])  # v 0, 0.1; a 0, 0.1
+    np.testing.assert_allclose(path.omega(), [(0.0 + 0.1) / 2 * 10], rtol=1e-12)
+    np.testing.assert_allclose(path.alpha(), [(0.0 + 0.1) / 2 * 100], rtol=1e-12)
+    for location in (0.3, 0.7):  # v 0.2, 0.4; a 0.1, 0.2
+        path.update([location])
+    np.testing.assert_allclose(path.omega(), [(0.4 + 0.2) / 2 * 10], rtol=1e-12)
+    np.testing.assert_allclose(path.alpha(), [(0.2 + 0.1 + 0.1) / 3 * 100], rtol=1e-12)
+    assert len(path.V) == len(path.A) == 3  # the window keeps the newest three
+    path.update([1.0])  # v 0.3, a -0.1
+    np.testing.assert_allclose(path.alpha(), [(-0.1 + 0.2 + 0.1) / 3 * 100], atol=1e-9)
+
+
+def test_reset_forgets_the_location_and_the_history() -> None:
+    path = PathEstimator(1, fps=10.0)
+    for location in (0.0, 0.2, 0.5):
+        path.update([location])
+    path.reset()
+    assert path.location is None and not path.V and not path.A
+    assert path.update([3.0]) == ((0.0,), (0.0,))
+
+
+def test_a_correction_two_frames_in_keeps_the_frame_before() -> None:
+    path = PathEstimator(1, fps=10.0)
+    path.update([1.0])
+    path.update([1.2])
+    v, a = path.correct([1.5])
+    assert v[0] == pytest.approx(0.5) and a[0] == pytest.approx(0.5)
+    assert path.location == (1.5,) and len(path.V) == len(path.A) == 2
+
+
+def test_by_default_the_window_keeps_ten_frames_and_alpha_averages_three() -> None:
+    path = PathEstimator(1, fps=0.5)  # a slow video is still a video
+    for location in (0.0, 0.3, 0.6, 1.2, 2.1):  # v: 0, 0.3, 0.3, 0.6, 0.9; a: 0, 0.3, 0, 0.3, 0.3
+        path.update([location])
+    np.testing.assert_allclose(path.alpha(), [(0.3 + 0.3 + 0.0) / 3 * 0.25], rtol=1e-12)
+    np.testing.assert_allclose(path.omega(), [(0.9 + 0.6) / 2 * 0.5], rtol=1e-12)
+    for _ in range(10):
+        path.update([2.1])
+    assert len(path.V) == len(path.A) == 10
+
+
+def test_correcting_before_any_reading_is_a_first_reading() -> None:
+    path = PathEstimator(2, fps=10.0)
+    assert path.correct([0.5, -0.5]) == ((0.0, 0.0), (0.0, 0.0))
+    assert path.location == (0.5, -0.5) and len(path.V) == 1
