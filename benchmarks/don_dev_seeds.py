@@ -46,8 +46,8 @@ from imimic_gym.bench import machine
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
 from imimic_gym.clips.types import MODALITIES, depth_to_frame
-from imimic_gym.estimators.config import don_preset, override, parse_setting
-from imimic_gym.estimators.don import DON
+from imimic_gym.estimators.don.config import don_preset, override, parse_setting
+from imimic_gym.estimators.don.one_link import DON
 from imimic_gym.evaluation import WARM_UP_S
 from imimic_gym.metrics import OCCLUDED, angle_rmse_deg
 from imimic_gym.suite import FIRST_HELD_OUT_SEED

@@ -30,7 +30,7 @@ import numpy as np
 from imimic_gym.bench import machine
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
-from imimic_gym.estimators.config import linked_don_preset, override, parse_setting
+from imimic_gym.estimators.don.config import linked_don_preset, override, parse_setting
 from imimic_gym.estimators.registry import build_estimator
 from imimic_gym.evaluation import WARM_UP_S, clip_context
 from imimic_gym.metrics import angle_rmse_deg

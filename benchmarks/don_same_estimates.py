@@ -35,14 +35,14 @@ ROOT = Path(__file__).resolve().parent.parent
 def capture(out: Path) -> None:
     """Every field of every DON estimate over the cases, saved to ``out`` (npz); uses
     whichever ``imimic_gym`` the interpreter imports."""
-    from imimic_gym.arms import build_arm_model
     from imimic_gym.clips.cache import load_clip
     from imimic_gym.clips.scenarios import get_scenario
+    from imimic_gym.robots.planar import build_arm_model
     try:
         from imimic_gym.clips.types import depth_to_frame
     except ImportError:  # a revision from before it moved there
         from imimic_gym.envs.imitate_video import depth_to_frame  # type: ignore[no-redef]
-    from imimic_gym.estimators.don import DON
+    from imimic_gym.estimators.don.one_link import DON
 
     arrays: dict[str, np.ndarray] = {}
     for name in SCENARIOS:

@@ -35,8 +35,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from imimic_gym.estimators.pose3d import Pose3DEstimator
-from imimic_gym.estimators.pose_model import BodyKeypoints, PoseModel
+from imimic_gym.estimators.pose.model import BodyKeypoints, PoseModel
+from imimic_gym.estimators.pose.spatial import Pose3DEstimator
 from imimic_gym.spatial import ArmPose, Intrinsics, angle_between
 from imimic_gym.spatial.lift import BoneLengths
 from imimic_gym.spatial.smoothing import OneEuroSettings

@@ -15,7 +15,7 @@ Per setting: the RMSE (deg, every frame, mean over clips) of pose-seeded DON aga
 oracle read on every frame (what the `real` suite compares against, there with MediaPipe)
 and against the exact truth, the largest error, the frames the oracle read, and of the
 frames between, those DON's turns carried and those rolled on at the pose rate. The
-constants of `estimators/pose_don.py` in ``TUNABLE`` can be set with ``--param
+constants of `estimators/pose/seeded_don.py` in ``TUNABLE`` can be set with ``--param
 NAME=VALUE`` (repeatable; angles in degrees).
 
 With ``--video FILE`` it scores pose-seeded DON on footage of one's own instead, against
@@ -51,7 +51,7 @@ from imimic_gym.bench import machine
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.dataset import randomised_spec
 from imimic_gym.estimators import pose_don
-from imimic_gym.estimators.pose_model import KEYPOINTS, BodyKeypoints, PoseModel
+from imimic_gym.estimators.pose.model import KEYPOINTS, BodyKeypoints, PoseModel
 from imimic_gym.kinematics import keypoints_to_angles, wrap_angle
 
 ANGLES = {"DISAGREE", "MAX_STEP"}  # constants held in rad, given in degrees
@@ -172,7 +172,7 @@ def run_video(path: str, pose_every: int, frames: int | None, steps: bool) -> No
     from itertools import islice
 
     from imimic_gym.clips.video import VideoReader
-    from imimic_gym.estimators.pose import PoseEstimator
+    from imimic_gym.estimators.pose.planar import PoseEstimator
 
     with VideoReader(path).open() as reader:
         fps = float(reader.fps)
@@ -252,7 +252,7 @@ def main() -> None:
                         help="with --video: also DON's turn a frame against the reference's, "
                              "by how fast the reference turns")
     parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
-                        help="a constant of estimators/pose_don.py: " + ", ".join(TUNABLE)
+                        help="a constant of estimators/pose/seeded_don.py: " + ", ".join(TUNABLE)
                              + " (angles in degrees)")
     args = parser.parse_args()
     if args.frames is not None and args.frames < 1:

@@ -32,7 +32,7 @@ import numpy as np
 
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
-from imimic_gym.estimators.pose import PoseEstimator
+from imimic_gym.estimators.pose.planar import PoseEstimator
 from imimic_gym.kinematics import keypoints_to_angles, wrap_angle
 from imimic_gym.suite import FIRST_HELD_OUT_SEED
 

@@ -7,7 +7,6 @@ quiet_start()  # the imimic command: a Ctrl-C in the imports below is one line, 
 from gymnasium.envs.registration import register  # noqa: E402
 
 from imimic_gym import _gl  # noqa: E402, F401  (headless GL defaults, before MuJoCo loads)
-from imimic_gym.arms import ArmSpec  # noqa: E402
 from imimic_gym.clips import (  # noqa: E402
     Clip,
     ClipSpec,
@@ -16,6 +15,7 @@ from imimic_gym.clips import (  # noqa: E402
     load_clip,
     scenario_names,
 )
+from imimic_gym.robots.planar import ArmSpec  # noqa: E402
 
 __all__ = [
     "ArmSpec", "Clip", "ClipSpec", "ClipTruth", "get_scenario", "load_clip", "scenario_names",

@@ -152,7 +152,7 @@ def bench_don(frames: int = 90, repeats: int = 7,
     import cv2
 
     from imimic_gym.estimators.baselines import CamShiftEstimator, MOG2Estimator
-    from imimic_gym.estimators.don import DON
+    from imimic_gym.estimators.don.one_link import DON
 
     cv2.setNumThreads(1)
     runs = {
@@ -191,7 +191,7 @@ def don_window_and_lighting(out_prefix: str, frames: int = 90) -> dict[str, Any]
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from imimic_gym.estimators.don import DON
+    from imimic_gym.estimators.don.one_link import DON
 
     cv2.setNumThreads(1)
     clip = load_clip(get_scenario("default", n_frames=frames), progress=False)

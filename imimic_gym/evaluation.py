@@ -239,7 +239,7 @@ def evaluate_photos(annotations: str | Path, images: str | Path, estimator: str,
     import cv2
 
     from imimic_gym.clips.annotations import image_path, read_annotations
-    from imimic_gym.estimators.pose import human_joint_ranges
+    from imimic_gym.estimators.pose.planar import human_joint_ranges
     from imimic_gym.kinematics import keypoints_to_angles, wrap_angle
     from imimic_gym.metrics import pcp, with_interval
 

@@ -1,6 +1,6 @@
 """Angles shared by the estimators, the truth and the controllers.
 
-Convention (`imimic_gym.arms`): angles in rad, counter-clockwise positive with the image's
+Convention (`imimic_gym.robots.planar`): angles in rad, counter-clockwise positive with the image's
 y axis pointing up; a link's joint angle is its image direction minus its parent's (the
 reference direction for the root). Pixels are (x, y), x right, y down.
 """
@@ -33,7 +33,7 @@ def wrap_angle(angle: np.ndarray | float) -> np.ndarray | float:
 
 def keypoints_to_angles(keypoints: np.ndarray, n_links: int,
                         reference_direction: float = -math.pi / 2) -> np.ndarray:
-    """Joint angles (the `imimic_gym.arms` convention) from shoulder, elbow, wrist pixels.
+    """Joint angles (the `imimic_gym.robots.planar` convention) from shoulder, elbow, wrist pixels.
 
     Args:
         keypoints: (..., 3, 2) pixel (x, y) of shoulder, elbow, wrist (image y down).

@@ -57,7 +57,7 @@ class PoseLabels:
 def _readings(frames: Iterable[np.ndarray], fps: float, arm: str,
               min_confidence: float) -> Iterator[tuple[np.ndarray, Any]]:
     """Each of ``frames`` with the pose model's `ArmReading` of it (None: no reading)."""
-    from imimic_gym.estimators.pose import PoseEstimator
+    from imimic_gym.estimators.pose.planar import PoseEstimator
 
     # The estimator's own floor: the same arm is chosen as `imimic mimic` would choose,
     # and a frame below the floor is no reading (unlabelled).
@@ -100,7 +100,7 @@ def within_ranges(angles: np.ndarray, labelled: np.ndarray,
     within its joint's range (low, high) rad, continuing the labelled frame before, as
     the pose estimator keeps its readings (`estimators.pose.continue_within`: a 2-D fold
     seen past 180 degrees stays at its limit). Unlabelled frames are returned as given."""
-    from imimic_gym.estimators.pose import continue_within
+    from imimic_gym.estimators.pose.planar import continue_within
 
     kept = np.array(angles, dtype=np.float64)
     previous: list[float | None] = [None] * kept.shape[1]
@@ -117,7 +117,7 @@ def human_truth(keypoints: np.ndarray, labelled: np.ndarray, fps: float, n_links
     pixels, labelled (T, 3): `clips.annotations.truth_from_keypoints` with the angles
     kept within a human arm's ranges (`estimators.pose.human_joint_ranges`,
     `within_ranges`), so that a robot with those ranges can reach every one."""
-    from imimic_gym.estimators.pose import human_joint_ranges
+    from imimic_gym.estimators.pose.planar import human_joint_ranges
 
     complete = np.asarray(labelled.all(axis=1), dtype=bool)
     angles = keypoints_to_angles(np.nan_to_num(keypoints), n_links, reference_direction)
@@ -164,7 +164,7 @@ def pose_truth(source: str | Path, frames: np.ndarray, fps: float, n_links: int,
 
 
 # Of the cached labels' layout and of how they are made: bump it when a change to the
-# pose estimator (estimators/pose.py, pose_model.py) changes its readings.
+# pose estimator (estimators/pose/planar.py, estimators/pose/model.py) changes its readings.
 LABELS_VERSION = 1
 
 
@@ -175,7 +175,7 @@ def _cached_labels_path(source: str | Path, n_frames: int, fps: float, arm: str,
     size, modification time), the frames read, the settings and the pose model's version.
     None for a source that is no single file (an image pattern)."""
     from imimic_gym.clips.cache import pose_labels_dir
-    from imimic_gym.estimators.pose_model import MEDIAPIPE_VERSION
+    from imimic_gym.estimators.pose.model import MEDIAPIPE_VERSION
 
     path = Path(source)
     if not path.is_file():

@@ -19,7 +19,8 @@ def test_demo_writes_video_plot_and_metrics(tmp_path, capsys) -> None:
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["scenario"] == "exp2-servo"
     assert metrics["estimator"] == "oracle" and metrics["controller"] == "oracle"
-    assert metrics["rmse_deg"] < 2.0 and metrics["max_error_deg"] >= metrics["rmse_deg"]
+    # measured 0.85 deg on clip seed 0 (issue 40: about 2x)
+    assert metrics["rmse_deg"] < 1.7 and metrics["max_error_deg"] >= metrics["rmse_deg"]
     assert isinstance(metrics["lag_frames"], int)
     video = cv2.VideoCapture(str(out / "demo.mp4"))
     try:
@@ -35,8 +36,9 @@ def test_demo_defaults_to_don_where_it_sees_the_arm(tmp_path, capsys) -> None:
     assert main(["demo", "--out", str(tmp_path / "one"), "--frames", "90"]) == 0
     metrics = json.loads((tmp_path / "one" / "metrics.json").read_text())
     assert metrics["estimator"] == "don" and metrics["controller"] == "pd"
-    # Vision in the loop: worse than the oracle's 2 degrees, far better than standing still.
-    assert 0.3 < metrics["rmse_deg"] < 8.0
+    # Vision in the loop: worse than the oracle, far better than standing still; measured
+    # 1.6 deg on clip seed 0 (issue 40: about 2x).
+    assert 0.3 < metrics["rmse_deg"] < 3.2
     capsys.readouterr()
     assert main(["demo", "--scenario", "chain-3", "--out", str(tmp_path / "three"),
                  "--frames", "10"]) == 0
@@ -62,7 +64,7 @@ def test_demo_offers_every_registered_estimator(tmp_path, capsys) -> None:
     assert main(["demo", "--estimator", "mog2", "--out", str(tmp_path), "--frames", "90"]) == 0
     metrics = json.loads((tmp_path / "metrics.json").read_text())
     assert metrics["estimator"] == "mog2" and metrics["controller"] == "pd"
-    assert 0.3 < metrics["rmse_deg"] < 15.0
+    assert 0.3 < metrics["rmse_deg"] < 4.8  # measured 2.4 deg on clip seed 0 (issue 40: about 2x)
 
 def test_clip_writes_mp4_and_truth(tmp_path) -> None:
     assert main(["clip", "--scenario", "chain-2", "--frames", "5", "--out", str(tmp_path)]) == 0
@@ -399,7 +401,7 @@ def other_cnn(tmp_path_factory) -> Path:
     weights and metadata, copied where a user's training run would put them."""
     import shutil
 
-    from imimic_gym.estimators.cnn import default_checkpoint
+    from imimic_gym.estimators.cnn.estimator import default_checkpoint
 
     folder = tmp_path_factory.mktemp("mine")
     for suffix in (".pt", ".json"):

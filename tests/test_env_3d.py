@@ -57,18 +57,18 @@ def test_a_robot_on_its_target_earns_no_tracking_penalty() -> None:
         assert info[key] == pytest.approx(0.0, abs=1e-6), key
 
 
-# Measured on seeds 0 and 1 (60 frames): reach 1.1-1.2 deg RMSE, curl 1.9; the wave 17.7
-# and the cup 9.3, where the retargeted target swings the shoulder over the top at the
-# retargeter's 12 degrees a frame, faster than the simulated servos follow.
+# Measured on reset seeds 0 and 1 (60 frames): reach 1.1 deg RMSE, curl 1.9, wave 3.7,
+# cup 1.8 (the wave was 17.7 before the retargeter's jump cost kept the shoulder from
+# swinging over the top faster than the simulated servos follow); the median frame's
+# worst joint 1.6, 0.9, 3.5 and 1.9 deg. Bounds about twice those.
 @pytest.mark.parametrize(("scenario", "bound"), [("spatial-reach", 2.5), ("spatial-curl", 4.0),
-                                                 ("spatial-wave", 36.0)])
+                                                 ("spatial-wave", 7.5), ("spatial-cup", 4.0)])
 def test_the_oracle_follows_the_retargeted_truth(scenario: str, bound: float) -> None:
     env = make(scenario=scenario, n_frames=60)
     trajectory = run_episode(env, OracleController(env), seed=0)
     assert trajectory.metrics()["rmse_deg"] < bound
-    # Off the swings it is on target: the median frame's worst joint within a few degrees.
     worst_joint = np.degrees(np.abs(trajectory.robot - trajectory.target)).max(axis=1)
-    assert np.median(worst_joint) < (3.0 if bound < 10 else 14.0)
+    assert np.median(worst_joint) < bound
 
 
 def test_the_scripted_controllers_drive_the_so101_from_an_estimate() -> None:
@@ -76,7 +76,7 @@ def test_the_scripted_controllers_drive_the_so101_from_an_estimate() -> None:
 
     env = TruthObservation(make(n_frames=40), keep_frame=False)
     metrics = run_episode(env, PositionController(env), seed=0).metrics()
-    assert metrics["rmse_deg"] < 3.0
+    assert metrics["rmse_deg"] < 3.0  # measured 1.99 deg on clip seed 0 (left at 1.5x)
 
 
 def test_it_runs_in_a_vector_env_and_replays_under_one_seed() -> None:

@@ -21,9 +21,10 @@ def test_spatial_estimators_report_flexion_and_forearm_direction_per_seed(tmp_pa
         for row in result["rows"]:
             assert 0.0 <= row["forearm_direction_error_deg"] <= 180.0
             assert row["elbow_flexion_rmse_deg"] >= 0.0 and row["coverage"] > 0.5
-    # The depth image gives the keypoints their depth: measured 2-8 deg of forearm error
-    # (median) on these development clips; the lift and MediaPipe's world landmarks more.
-    assert results["pose3d-depth"]["mean"]["forearm_direction_error_deg"] < 15.0
+    # The depth image gives the keypoints their depth: measured 2.4 deg of forearm error
+    # (mean of 1.6 and 3.2 on seeds 1000, 1001; issue 40: about 2x); the lift 10.8 and
+    # MediaPipe's world landmarks 20.9.
+    assert results["pose3d-depth"]["mean"]["forearm_direction_error_deg"] < 5.0
 
 
 def test_planar_estimators_are_refused_on_a_spatial_scenario() -> None:
@@ -38,6 +39,6 @@ def test_the_suite_drives_the_so101_on_a_spatial_scenario(estimator, tmp_path) -
                  "--controller", "position", "--episodes", "1", "--frames", "30",
                  "--json", str(out), "--out", str(tmp_path / "suite")]) == 0
     (result,) = json.loads(out.read_text())
-    # Joint RMSE against the retargeted truth; measured 2.9 deg for the oracle and 25 for
-    # pose3d on spatial-curl (60 frames).
-    assert result["mean"]["rmse_deg"] < (6.0 if estimator == "oracle" else 60.0)
+    # Joint RMSE against the retargeted truth: measured 2.2 deg for the oracle and 13.1 for
+    # pose3d on seed 1000 (issue 40: about 2x).
+    assert result["mean"]["rmse_deg"] < (4.5 if estimator == "oracle" else 26.0)

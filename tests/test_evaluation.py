@@ -20,7 +20,8 @@ def test_eval_writes_json_with_finite_metrics(tmp_path) -> None:
             assert math.isfinite(mean[key])
         assert 0.0 <= mean["mean_trust"] <= 1.0
     don = results[0]["mean"]
-    assert don["rmse_deg_settled"] < 3.0  # the servo, after warm-up
+    # The servo, after warm-up: measured 0.65 deg on seed 1000 (issue 40: about 2x).
+    assert don["rmse_deg_settled"] < 1.3
 
 
 @pytest.mark.parametrize("frames", [2, 15, 16])
@@ -65,7 +66,7 @@ def test_eval_on_depth_video_scores_the_servo(tmp_path) -> None:
                  "--modality", "depth", "--json", str(out)]) == 0
     (result,) = json.loads(out.read_text())
     assert result["modality"] == "depth"
-    assert result["mean"]["rmse_deg_settled"] < 3.0
+    assert result["mean"]["rmse_deg_settled"] < 0.5  # measured 0.22 deg on seed 1000 (issue 40)
 
 
 def test_eval_refuses_an_unknown_modality() -> None:
@@ -110,12 +111,16 @@ def test_eval_checks_every_estimator_and_scenario_before_running_any(
 
 
 def test_eval_scores_don_per_joint_on_two_links() -> None:
-    result = evaluate_estimator("chain-2", "don", episodes=1, first_seed=7)
-    mean = result["mean"]
-    # Tuned on seeds 0-4; a clip of 150 frames with the shoulder found from the video.
-    assert mean["rmse_deg_settled_q1"] < 25.0 and mean["rmse_deg_settled_q2"] < 25.0
-    assert mean["rmse_deg_settled"] == pytest.approx(
-        math.sqrt((mean["rmse_deg_settled_q1"] ** 2 + mean["rmse_deg_settled_q2"] ** 2) / 2))
+    result = evaluate_estimator("chain-2", "don", episodes=5, first_seed=7)
+    # Tuned on seeds 0-4; clips of 150 frames with the shoulder found from the video. The
+    # figure is noisy across seeds (joints 1, 2 measured 7.0, 3.6 deg on seed 7; 3.1-3.4 on
+    # seeds 8, 10, 11; 15.1, 9.6 on seed 9), so the median over seeds 7-11 is tested:
+    # measured 3.4 and 3.4 deg (issue 40: about 2x).
+    for joint in ("q1", "q2"):
+        assert np.median([row[f"rmse_deg_settled_{joint}"] for row in result["rows"]]) < 7.0
+    for row in result["rows"]:
+        assert row["rmse_deg_settled"] == pytest.approx(
+            math.sqrt((row["rmse_deg_settled_q1"] ** 2 + row["rmse_deg_settled_q2"] ** 2) / 2))
 
 
 def test_eval_runs_the_shipped_cnn(tmp_path) -> None:
@@ -123,7 +128,7 @@ def test_eval_runs_the_shipped_cnn(tmp_path) -> None:
     assert main(["eval", "--scenario", "default", "--estimator", "cnn", "--episodes", "1",
                  "--json", str(out)]) == 0
     mean = json.loads(out.read_text())[0]["mean"]
-    assert mean["rmse_deg"] < 10.0 and mean["mean_trust"] == 1.0
+    assert mean["rmse_deg"] < 10.0 and mean["mean_trust"] == 1.0  # measured 4.9 deg, seed 1000
 
 
 def test_don_paper_is_don_without_its_appearance_layer() -> None:
@@ -131,7 +136,7 @@ def test_don_paper_is_don_without_its_appearance_layer() -> None:
     ``appearance=False``, other numbers than the default DON on a cluttered clip."""
     from imimic_gym.clips.cache import load_clip
     from imimic_gym.clips.scenarios import get_scenario
-    from imimic_gym.estimators.don import DON
+    from imimic_gym.estimators.don.one_link import DON
     from imimic_gym.metrics import angle_rmse_deg
 
     spec = get_scenario("exp3-forearm-none", seed=1000)
@@ -148,7 +153,7 @@ def test_don_paper_is_don_without_its_appearance_layer() -> None:
 def test_don_paper_on_two_links_is_linked_don_without_its_appearance_layer() -> None:
     from imimic_gym.clips.cache import load_clip
     from imimic_gym.clips.scenarios import get_scenario
-    from imimic_gym.estimators.don_links import LinkedDON
+    from imimic_gym.estimators.don.linked import LinkedDON
     from imimic_gym.metrics import angle_rmse_deg
 
     spec = get_scenario("chain-2", seed=1000)
@@ -194,8 +199,10 @@ def test_eval_scores_photos_with_pcp_and_the_elbow_error(tmp_path) -> None:
             cell = result[key]
             assert 0.0 <= cell["low"] <= cell["value"] <= cell["high"] <= 1.0
     # The shipped CNN was trained on renders like these; the pose model reads them too.
+    # Measured medians: the CNN 25.5 deg (its bound left at 1.6x), the pose model 1.65
+    # (issue 40: about 2x); clip seed 5, frames 3, 7, 11.
     assert cnn["pcp_upper"]["value"] == 1.0 and cnn["elbow_error_deg_median"]["value"] < 40
-    assert pose["found"] >= 2 and pose["elbow_error_deg_median"]["value"] < 20
+    assert pose["found"] >= 2 and pose["elbow_error_deg_median"]["value"] < 3.5
     with pytest.raises(SystemExit, match="'don' reads motion between frames"):
         cli(["eval", "--photos", str(tmp_path / "arms.json"), "--images",
              str(tmp_path / "images"), "--estimator", "don"])

@@ -17,7 +17,7 @@ from imimic_gym.cli import main
 from imimic_gym.clips import get_scenario, load_clip
 from imimic_gym.clips.annotations import read_annotations
 from imimic_gym.clips.video_writer import write_video
-from imimic_gym.estimators.pose import human_joint_ranges
+from imimic_gym.estimators.pose.planar import human_joint_ranges
 from imimic_gym.kinematics import keypoints_to_angles
 from imimic_gym.labels import label_video
 
@@ -45,7 +45,8 @@ def test_label_writes_coco_that_train_cnn_and_the_env_read_back(person_video,
     index = [int(arm.file_name[6:12]) for arm in arms]
     truth = keypoints_to_angles(clip.truth.keypoints[index][:, :3], 1)
     labelled = keypoints_to_angles(np.stack([arm.keypoints for arm in arms]), 1)
-    assert np.median(np.degrees(np.abs(labelled - truth))) < 15.0
+    # measured 3.4 deg on clip seed 5 (issue 40: about 2x)
+    assert np.median(np.degrees(np.abs(labelled - truth))) < 7.0
     # The CNN trains on them for a tiny budget and writes a checkpoint.
     done = subprocess.run([sys.executable, str(TRAIN), "--annotations", str(out / "labels.json"),
                            "--images", str(out / "images"), "--cnn-epochs", "1", "--epochs",
@@ -76,7 +77,7 @@ def test_pose_annotations_give_the_env_flagged_pseudo_truth(person_video) -> Non
     # The model's reading of our small mannequin in a compressed video: right on most
     # frames, far off on a few (a model's labels, to be checked).
     errors = np.degrees(np.abs(targets - clip.truth.angles[read]))
-    assert np.median(errors) < 15.0
+    assert np.median(errors) < 7.0  # measured 3.4 deg on clip seed 5 (issue 40: about 2x)
     env.close()
     rendered = gym.make("ImitateVideo-v0", scenario="default", n_frames=5)
     assert rendered.reset(seed=0)[1]["truth_source"] == "render"
@@ -151,7 +152,7 @@ def test_label_takes_an_intact_file_whose_container_counts_more_frames(edit_list
 
 def test_ctrl_c_while_labelling_keeps_the_frames_read(person_video, tmp_path,
                                                       monkeypatch) -> None:
-    from imimic_gym.estimators.pose import PoseEstimator
+    from imimic_gym.estimators.pose.planar import PoseEstimator
 
     read, calls = PoseEstimator.read, []
 

@@ -49,9 +49,10 @@ def test_mimic_video_writes_the_video_plot_and_csv(servo_clip, servo_mp4, tmp_pa
     estimate = np.array([float(r["angle_rad"]) for r in rows])
     robot = np.array([float(r["robot_rad"]) for r in rows])
     truth = servo_clip.truth.angles[:, 0]
-    # DON on the decoded file, then the servo robot following it: a few degrees at most.
-    assert angle_rmse_deg(estimate[15:], truth[15:]) < 2.0
-    assert angle_rmse_deg(robot[15:], truth[15:]) < 4.0
+    # DON on the decoded file, then the servo robot following it: measured 0.74 and 1.39
+    # deg on clip seed 0 (issue 40: about 2x).
+    assert angle_rmse_deg(estimate[15:], truth[15:]) < 1.5
+    assert angle_rmse_deg(robot[15:], truth[15:]) < 2.8
     assert all(0.0 <= float(r["eta"]) <= 1.0 for r in rows)
     summary = json.loads((out / "mimic.json").read_text())
     assert summary["frames"] == 90 and summary["ended"] == "end of footage"
@@ -175,9 +176,9 @@ def test_two_links_are_copied_from_a_video_file(tmp_path) -> None:
     assert summary["frames"] == len(rows) == 150 and clip.frames.reader.capture is None
     angles = np.array([[float(r["angle_rad1"]), float(r["angle_rad2"])] for r in rows])
     # From an mp4 (compression noise on the differences), shoulder found from the video:
-    # measured 11.8 and 13.7 degrees.
-    for joint in range(2):
-        assert angle_rmse_deg(angles[15:, joint], source.truth.angles[15:, joint]) < 20.0
+    # measured 0.79 and 1.75 deg on clip seed 0 (issue 40: about 2x).
+    for joint, bound in enumerate((1.6, 3.5)):
+        assert angle_rmse_deg(angles[15:, joint], source.truth.angles[15:, joint]) < bound
 
 
 class InterruptingServo:
@@ -227,8 +228,10 @@ def test_mimic_drives_a_servo_through_a_pseudo_terminal(servo_mp4, tmp_path) -> 
     degrees = [float(line.split()[1]) for line in lines]
     assert all(line.startswith("J1 ") for line in lines)
     assert all(0.0 <= d <= 120.0 for d in degrees)
-    # The servo follows the same target as the simulated robot (60 = joint angle 0).
-    assert abs(degrees[-1] - 60 - math.degrees(commanded[-1])) < 15
+    # The servo follows the same target as the simulated robot (60 = joint angle 0): measured
+    # 0.39 deg apart on the last frame (issue 40: about 2x, plus the 0.05 of the 0.1 deg
+    # the line is rounded to).
+    assert abs(degrees[-1] - 60 - math.degrees(commanded[-1])) < 0.85
 
 
 def test_help_lists_mimic_and_its_options(capsys) -> None:
@@ -269,7 +272,8 @@ def test_mimic_runs_the_cnn_on_a_recorded_person(tmp_path) -> None:
                  "--joint-range", "0", "150", "--out", str(out)]) == 0
     rows = read_csv(out / "mimic.csv")
     estimate = np.array([float(r["angle_rad"]) for r in rows])
-    # The shipped 1-link network on a decoded plain-wall clip: its test-set error is ~10 deg.
+    # The shipped 1-link network on a decoded plain-wall clip: measured 5.2 deg on clip
+    # seed 5 (issue 40: about 2x).
     assert len(rows) == 40 and angle_rmse_deg(estimate, clip.truth.angles[:, 0]) < 10.0
     with pytest.raises(SystemExit, match="--pivot is DON's"):
         main(["mimic", "--video", str(tmp_path / "person.mp4"), "--estimator", "cnn",
@@ -295,9 +299,10 @@ def test_by_default_mimic_finds_the_person_holds_when_they_leave_and_picks_them_
     assert np.ptp(estimate[21:40]) == 0.0 and np.ptp(robot[30:40]) < math.radians(1.0)
     # Back in view: read again, and the forearm followed, roughly: the model reads our
     # small mannequin in a compressed video some 20 degrees off on the median frame
-    # (the uncompressed clip's accuracy is tests/estimators/test_pose.py's).
+    # (the uncompressed clip's accuracy is tests/estimators/pose/test_planar.py's).
     assert (eta[45:] > 0.5).mean() > 0.8
     error = np.degrees(np.abs(estimate[45:] - clip.truth.angles[25:, 0]))
+    # measured 27.8 deg, the robot's travel 197 deg
     assert np.median(error) < 30.0 and np.ptp(robot[40:]) > math.radians(10.0)
     summary = json.loads((out / "mimic.json").read_text())
     assert summary["estimator"] == "pose" and summary["frames_without_reading"] >= 20

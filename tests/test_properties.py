@@ -62,7 +62,7 @@ def test_frames_that_are_not_rgb_uint8_are_a_value_error(name, frame) -> None:
 @given(fps=st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-5, 5)))
 def test_any_frame_rate_is_taken_or_named(fps) -> None:
     from imimic_gym.estimators.baselines import CamShiftEstimator, MOG2Estimator
-    from imimic_gym.estimators.don import DON
+    from imimic_gym.estimators.don.one_link import DON
 
     valid = math.isfinite(fps) and fps > 0
     for make in (DON, MOG2Estimator, CamShiftEstimator):

@@ -55,7 +55,7 @@ def test_the_oracle_controller_runs_vectorised_too() -> None:
     config = RunConfig("exp4-hand", "oracle", "oracle", seeds=(3, 4), frames=30)
     rows = summarise(config, run_config(config, num_envs=2))["rows"]
     assert [r["seed"] for r in rows] == [3, 4]
-    assert all(r["rmse_deg"] < 3.0 for r in rows)
+    assert all(r["rmse_deg"] < 2.4 for r in rows)  # measured 1.07, 1.17 deg (issue 40: about 2x)
 
 
 def test_paper_mode_prints_every_experiment(tmp_path, capsys) -> None:

@@ -47,7 +47,7 @@ from imimic_gym.clips.annotations import (
     write_annotations,
 )
 from imimic_gym.clips.dataset import DEFAULT_ANNOTATIONS, load_images
-from imimic_gym.estimators.cnn import (
+from imimic_gym.estimators.cnn.estimator import (
     CNNRefiner,
     NetConfig,
     keypoint_loss,
@@ -57,7 +57,7 @@ from imimic_gym.estimators.cnn import (
     to_input,
     to_units,
 )
-from imimic_gym.estimators.cnn_report import format_pcp_tables, pcp_report
+from imimic_gym.estimators.cnn.report import format_pcp_tables, pcp_report
 
 
 @dataclass
@@ -335,11 +335,12 @@ def main() -> None:
     gen = torch.Generator().manual_seed(args.seed)
 
     # Every input is read before the run folder exists: a mistake in one leaves no folder.
+    # The checkpoint to start from before the images: those may be regenerated (minutes).
     split_train, test_arms = load_split(args)
+    model = load_model(args.init) if args.init else CNNRefiner(NetConfig())
     train_arms = split_train[: args.limit] if args.limit else split_train
     train_images = load_images(train_arms, args.images)
     test_images = load_images(test_arms, args.images)
-    model = load_model(args.init) if args.init else CNNRefiner(NetConfig())
     x, y = arrays(train_arms, train_images, model.config)
     print(f"{run_name}: {len(x)} training, {len(test_arms)} test images, input "
           f"{model.config.input_hw}, {sum(p.numel() for p in model.parameters())} weights")

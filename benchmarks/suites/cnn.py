@@ -88,8 +88,8 @@ def speed(args: Any) -> dict[str, Any]:
 
     from imimic_gym.clips.cache import load_clip
     from imimic_gym.clips.scenarios import get_scenario
-    from imimic_gym.estimators.cnn import CNNEstimator
-    from imimic_gym.estimators.don import DON
+    from imimic_gym.estimators.cnn.estimator import CNNEstimator
+    from imimic_gym.estimators.don.one_link import DON
 
     seed = (QUICK_SEEDS if args.quick else TEST_POOL)[0]
     torch.set_num_threads(1)

@@ -51,7 +51,7 @@ from imimic_gym.bench import machine
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
 from imimic_gym.clips.video import VideoReader, stream_video
-from imimic_gym.estimators.pose import human_joint_ranges
+from imimic_gym.estimators.pose.planar import human_joint_ranges
 from imimic_gym.estimators.registry import build_estimator, get_estimator
 from imimic_gym.estimators.types import EstimatorContext
 from imimic_gym.evaluation import WARM_UP_S, clip_context, evaluate_photos, run_estimator
@@ -104,7 +104,7 @@ def photo_row(annotations: Path, name: str, estimator: str,
 
 def photos(quick: bool) -> dict[str, Any]:
     """`imimic eval --photos` for the pose model and each shipped CNN."""
-    from imimic_gym.estimators.cnn import default_checkpoint
+    from imimic_gym.estimators.cnn.estimator import default_checkpoint
 
     annotations = photo_annotations(quick)
     runs = {"pose": {}, **{f"cnn (shipped, {links} link{'s' * (links > 1)})":
@@ -271,7 +271,7 @@ def camera_cnn(quick: bool) -> dict[str, Any]:
     import sys
 
     from imimic_gym.clips.annotations import read_annotations, write_annotations
-    from imimic_gym.estimators.cnn import default_checkpoint
+    from imimic_gym.estimators.cnn.estimator import default_checkpoint
     from imimic_gym.labels import label_video
 
     rows = []
@@ -368,7 +368,7 @@ def _train_and_score(work: Path, quick: bool) -> dict[str, Any]:
 
     from imimic_gym.clips.annotations import write_annotations
     from imimic_gym.clips.dataset import generate_arms, rendered_image_path
-    from imimic_gym.estimators.cnn import default_checkpoint
+    from imimic_gym.estimators.cnn.estimator import default_checkpoint
 
     images = work / "images"
     clips = (4, 2) if quick else DOMAIN_CLIPS

@@ -73,7 +73,7 @@ def real(quick: bool) -> dict[str, Any]:
     clips; nothing is chosen here): coverage, smoothness, flips, flexion percentiles."""
     from pose3d_dev import read_video, summary
 
-    from imimic_gym.estimators.pose3d import Pose3DEstimator
+    from imimic_gym.estimators.pose.spatial import Pose3DEstimator
 
     if not REALDATA.exists():
         return {"skipped": f"{REALDATA} not present"}
@@ -99,7 +99,7 @@ def mimic(quick: bool) -> dict[str, Any]:
     from suites.real import decode_seconds_per_frame, make_1080p
 
     from imimic_gym.clips.video import stream_video
-    from imimic_gym.estimators.pose import human_joint_ranges
+    from imimic_gym.estimators.pose.planar import human_joint_ranges
     from imimic_gym.mimic import run_mimic
 
     source = REALDATA / "videos" / "ta_chi.mp4"

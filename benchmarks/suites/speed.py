@@ -73,7 +73,7 @@ def step(args: Any) -> dict[str, Any]:
     import mujoco
 
     import imimic_gym  # noqa: F401  (registers the env)
-    from imimic_gym.arms import build_arm_model
+    from imimic_gym.robots.planar import build_arm_model
 
     calls = 300 if args.quick else 3000
     env = gym.make("ImitateVideo-v0")
@@ -138,7 +138,7 @@ def links(args: Any) -> dict[str, Any]:
 
     from imimic_gym.clips.cache import load_clip
     from imimic_gym.clips.scenarios import get_scenario
-    from imimic_gym.estimators.don import DON
+    from imimic_gym.estimators.don.one_link import DON
     from imimic_gym.estimators.registry import build_estimator
     from imimic_gym.evaluation import clip_context
 
@@ -179,7 +179,7 @@ from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
 clip = load_clip(get_scenario("default", n_frames=90), progress=False)
 start = time.perf_counter()
-from imimic_gym.estimators.don import DON
+from imimic_gym.estimators.don.one_link import DON
 DON().run(clip.frames)
 first = time.perf_counter() - start
 start = time.perf_counter()

@@ -191,7 +191,7 @@ def checkpoint_params(command: str, estimators: list[str | None],
             raise CommandError(f"imimic {command}: --checkpoint is the weights of "
                                f"--estimator {' or '.join(takers)}; {which} takes none")
     from imimic_gym.checkpoints import CheckpointError
-    from imimic_gym.estimators.cnn import load_model
+    from imimic_gym.estimators.cnn.estimator import load_model
 
     try:
         load_model(checkpoint)

@@ -166,7 +166,7 @@ def _mimic(args: argparse.Namespace) -> int:
         low, high = (math.radians(v) for v in args.joint_range)
         ranges: list[tuple[float, float]] = [(low, high)] * args.links
     elif get_estimator(args.estimator).real_people:
-        from imimic_gym.estimators.pose import human_joint_ranges
+        from imimic_gym.estimators.pose.planar import human_joint_ranges
 
         ranges = list(human_joint_ranges(args.links))
     else:

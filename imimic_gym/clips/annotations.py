@@ -27,7 +27,7 @@ Videos. A COCO file can also annotate the frames of a video (one image per frame
   frames (held at the ends) and ``visible`` False; velocities and accelerations are
   central differences of the unwrapped angles.
 
-Angles follow one convention (`imimic_gym.arms`), `kinematics.keypoints_to_angles`: for
+Angles follow one convention (`imimic_gym.robots.planar`), `kinematics.keypoints_to_angles`: for
 one link, q1 is the forearm's angle from the upper arm (the upper arm is the reference
 link even when it moves); for two, q1 is the upper arm's angle from
 ``reference_direction`` and q2 the elbow. Image directions are CCW from image right, with

@@ -17,9 +17,9 @@ import math
 
 import numpy as np
 
-from imimic_gym.arms import fmt, link_frame_quat
 from imimic_gym.clips.gestures import SPATIAL_JOINT_RANGES, SPATIAL_JOINTS
 from imimic_gym.clips.scenarios import HUMAN_SEGMENTS, Appearance, ClipSpec, person_look
+from imimic_gym.robots.planar import fmt, link_frame_quat
 
 __all__ = ["ARM_SITES", "MOVING_GROUP", "camera_pose", "keypoint_names", "scene_mjcf",
            "workspace"]

@@ -10,10 +10,10 @@ from typing import Any, Literal
 
 import numpy as np
 
-from imimic_gym.arms import MAX_LINKS, ArmSpec, Control, Plane
 from imimic_gym.clips.gestures import GESTURES, Gesture
 from imimic_gym.clips.motion import MOTION_PROFILES, MotionProfile
 from imimic_gym.clips.types import Clip
+from imimic_gym.robots.planar import MAX_LINKS, ArmSpec, Control, Plane
 
 __all__ = ["SCENARIOS", "SKIN_TONES", "Appearance", "ClipSpec", "get_scenario", "person_look",
            "scenario_names"]

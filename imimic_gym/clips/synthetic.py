@@ -69,7 +69,7 @@ def clip_meta(spec: ClipSpec) -> dict:
 
 def planar_angles(keypoints: np.ndarray, n_links: int, reference_direction: float,
                   fps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The planar reading (the `imimic_gym.arms` convention) of a spatial arm's
+    """The planar reading (the `imimic_gym.robots.planar` convention) of a spatial arm's
     keypoints (T, 4, 2) pixels (shoulder, elbow, wrist, hand tip): link i's image
     direction minus its parent's (the reference's for the first), wrapped.
 

@@ -75,7 +75,7 @@ def load_video(
         if joint_ranges is None and "joint_ranges" in geometry:
             joint_ranges = [(float(lo), float(hi)) for lo, hi in geometry["joint_ranges"]]
     elif annotations is not None and joint_ranges is None:
-        from imimic_gym.estimators.pose import human_joint_ranges
+        from imimic_gym.estimators.pose.planar import human_joint_ranges
 
         joint_ranges = human_joint_ranges(n_links)
     ranges = tuple(joint_ranges) if joint_ranges is not None else (DEFAULT_JOINT_RANGE,) * n_links

@@ -10,8 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from imimic_gym.arms import CONTROL_MODES, MAX_LINKS
 from imimic_gym.clips.types import MODALITIES, Clip
+from imimic_gym.robots.planar import CONTROL_MODES, MAX_LINKS
 
 __all__ = ["MAX_SIDE", "check_arguments", "check_sources"]
 

@@ -14,7 +14,6 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import EzPickle
 
-from imimic_gym.arms import ArmSpec, Control
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import ClipSpec, get_scenario, robot_for_clip
 from imimic_gym.clips.types import Clip, depth_to_frame
@@ -22,6 +21,7 @@ from imimic_gym.envs.arguments import check_arguments, check_sources
 from imimic_gym.estimators.types import Estimate, EstimatorContext
 from imimic_gym.kinematics import wrap_angle
 from imimic_gym.render import OffscreenRenderer
+from imimic_gym.robots.planar import ArmSpec, Control
 from imimic_gym.robots.spec import RobotSpec
 
 __all__ = ["ImitateVideoEnv", "SimulationUnstableError", "imitate_env"]

@@ -10,13 +10,13 @@ import mujoco
 import numpy as np
 from gymnasium.utils import EzPickle
 
-from imimic_gym.arms import Control
 from imimic_gym.clips.scenarios import ClipSpec
 from imimic_gym.clips.types import Clip
 from imimic_gym.envs.imitate_video import ImitateVideoEnv
 from imimic_gym.estimators.types import Estimate, EstimatorContext
 from imimic_gym.metrics import direction_error_deg
 from imimic_gym.retarget import MAPPINGS, DirectionRetargeter
+from imimic_gym.robots.planar import Control
 from imimic_gym.robots.so101 import SO101Spec
 from imimic_gym.spatial.arm_pose import angle_between, unit
 from imimic_gym.spatial.camera import Intrinsics

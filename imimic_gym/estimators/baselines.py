@@ -23,9 +23,9 @@ import cv2
 import mujoco
 import numpy as np
 
+from imimic_gym.estimators.don.link_tracker import LinkTracker
 from imimic_gym.estimators.frames import WorkingFrames
 from imimic_gym.estimators.joint_range import within_range
-from imimic_gym.estimators.link_tracker import LinkTracker
 from imimic_gym.estimators.motion import PathEstimator, TorqueModel
 from imimic_gym.estimators.types import Estimate
 from imimic_gym.kinematics import wrap_angle

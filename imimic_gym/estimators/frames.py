@@ -6,7 +6,7 @@ with the paper's Gaussian (15x15 at 240 rows, sigma 2.6) scaled by the same fact
 (sigma 1.3, 5x5 at 120 rows): the same smoothing in scene units at a fraction of the
 pixels, and a cost almost independent of the input resolution. Colour is kept: skin
 against a pale wall differs little in grey but a lot in blue. The baselines smooth so;
-DON's default is no Gaussian at all, only the area average (`don.py` says why).
+DON's default is no Gaussian at all, only the area average (`don/one_link.py` says why).
 """
 
 from __future__ import annotations

@@ -14,8 +14,8 @@ from collections.abc import Sequence
 import mujoco
 import numpy as np
 
-from imimic_gym.arms import joint_inertia
 from imimic_gym.kinematics import wrap_angle
+from imimic_gym.robots.planar import joint_inertia
 
 __all__ = ["PathEstimator", "TorqueModel"]
 

@@ -21,7 +21,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any
 
-from imimic_gym.estimators.config import (
+from imimic_gym.estimators.don.config import (
     DONConfig,
     LinkedDONConfig,
     don_preset,
@@ -202,14 +202,14 @@ def _don(appearance: bool) -> Callable[..., Estimator]:
         # A config given wins over the preset; don-paper's has no appearance layer.
         given = params.pop("config", None)
         if context.n_links == 1:
-            from imimic_gym.estimators.don import DON
+            from imimic_gym.estimators.don.one_link import DON
 
             config = given or don_preset(context.modality)
             if not appearance:
                 config = override(config, {"appearance": False})
             return DON(**{"joint_range": tuple(context.joint_ranges[0]), **common,
                           "config": config, **params})
-        from imimic_gym.estimators.don_links import LinkedDON
+        from imimic_gym.estimators.don.linked import LinkedDON
 
         linked = given or linked_don_preset(context.modality)
         if not appearance:
@@ -237,7 +237,7 @@ def _baseline(kind: str) -> Callable[..., Estimator]:
 
 
 def _cnn(context: EstimatorContext, **params: Any) -> Estimator:
-    from imimic_gym.estimators.cnn import CNNEstimator
+    from imimic_gym.estimators.cnn.estimator import CNNEstimator
 
     return CNNEstimator(n_links=context.n_links, fps=context.fps,
                         reference_direction=context.reference_direction, robot=context.robot,
@@ -245,7 +245,7 @@ def _cnn(context: EstimatorContext, **params: Any) -> Estimator:
 
 
 def _pose(context: EstimatorContext, **params: Any) -> Estimator:
-    from imimic_gym.estimators.pose import PoseEstimator
+    from imimic_gym.estimators.pose.planar import PoseEstimator
 
     return PoseEstimator(n_links=context.n_links, fps=context.fps,
                          reference_direction=context.reference_direction,
@@ -253,7 +253,7 @@ def _pose(context: EstimatorContext, **params: Any) -> Estimator:
 
 
 def _pose_don(context: EstimatorContext, **params: Any) -> Estimator:
-    from imimic_gym.estimators.pose_don import PoseSeededDON
+    from imimic_gym.estimators.pose.seeded_don import PoseSeededDON
 
     return PoseSeededDON(fps=context.fps, reference_direction=context.reference_direction,
                          robot=context.robot, **params)
@@ -264,7 +264,7 @@ _POSE3D_PARAMS = ("arm", "min_confidence")
 
 def _pose3d(source: str) -> Callable[..., SpatialEstimator]:
     def build(context: EstimatorContext, **params: Any) -> SpatialEstimator:
-        from imimic_gym.estimators.pose3d import Pose3DEstimator
+        from imimic_gym.estimators.pose.spatial import Pose3DEstimator
 
         return Pose3DEstimator(fps=context.fps, intrinsics=context.intrinsics,
                                source=params.pop("source", source), **params)

@@ -39,7 +39,7 @@ class Estimate:
 
     Attributes:
         angles: (n,) joint angles, rad: link 1 from the reference direction, link i from
-            its parent link, counter-clockwise in the image positive (`imimic_gym.arms`).
+            its parent link, counter-clockwise in the image positive (`imimic_gym.robots.planar`).
         omega: (n,) angular velocities, rad/s.
         alpha: (n,) angular accelerations, rad/s^2.
         torque: (n,) joint torques the robot needs for this motion, N m.

@@ -75,10 +75,14 @@ class DirectionRetargeter:
     gripper hold ``wrist_roll`` and ``gripper`` (rad). With a ``previous`` target, each
     choice also pays ``continuity`` rad of direction error per rad of joint motion, so the
     targets move continuously: the pan is held where the arm leaves it free, and a
-    solution is never swapped for a distant one that fits only slightly better; and no
-    joint moves more than ``max_step`` rad from ``previous``, so where the robot must
-    swing its pan half a turn (or its elbow to the other bend) to follow, it swings over
-    several frames instead of flipping.
+    solution is never swapped for a distant one that fits only slightly better; and
+    ``jump_cost`` rad more per rad that a joint would move beyond ``max_step``, so a
+    solution more than a frame's step away (the shoulder over the top, the elbow to its
+    other bend) is taken only where it fits far better (the robot is blind meanwhile:
+    it points wrong for every frame of the swing); and no joint moves more than
+    ``max_step`` rad from ``previous``, so where the robot does swing, it swings over
+    several frames instead of flipping. The squared costs add: continuity^2 * sum(d^2)
+    + jump_cost^2 * sum(max(|d| - max_step, 0)^2) over pan, lift and elbow moves d.
     """
 
     spec: SO101Spec = field(default_factory=SO101Spec)
@@ -86,6 +90,7 @@ class DirectionRetargeter:
     wrist_roll: float = 0.0
     gripper: float = 0.0
     continuity: float = 0.1
+    jump_cost: float = 1.0
     max_step: float = math.radians(12.0)
     forearm_weight: float = 1.0
     flexion_weight: float = 0.0
@@ -96,10 +101,10 @@ class DirectionRetargeter:
             if not lo <= getattr(self, name) <= hi:
                 raise ValueError(f"DirectionRetargeter.{name} must be inside its joint range "
                                  f"[{lo}, {hi}] rad, got {getattr(self, name)}")
-        weights = (self.continuity, self.forearm_weight, self.flexion_weight)
+        weights = (self.continuity, self.jump_cost, self.forearm_weight, self.flexion_weight)
         if min(weights) < 0 or self.max_step <= 0:
-            raise ValueError(f"continuity, forearm_weight and flexion_weight must be >= 0 and "
-                             f"max_step > 0, got {weights} and {self.max_step}")
+            raise ValueError(f"continuity, jump_cost, forearm_weight and flexion_weight must "
+                             f"be >= 0 and max_step > 0, got {weights} and {self.max_step}")
 
     @cached_property
     def _zero_angles(self) -> tuple[float, float]:
@@ -201,9 +206,12 @@ class DirectionRetargeter:
                  + k_flex * (np.abs(bends) - flexion) ** 2)
         if last is not None:
             upper_zero, fore_zero = self._zero_angles
-            costs += self.continuity ** 2 * (
-                (pans - last[_PAN])[:, None] ** 2 + (upper_zero - elevations - last[_LIFT]) ** 2
-                + (bends - fore_zero - last[_ELBOW]) ** 2)
+            moves = np.abs(np.stack(np.broadcast_arrays(
+                (pans - last[_PAN])[:, None], upper_zero - elevations - last[_LIFT],
+                bends - fore_zero - last[_ELBOW])))  # (3, n, k) rad
+            costs += (self.continuity ** 2 * (moves ** 2).sum(axis=0)
+                      + self.jump_cost ** 2
+                      * (np.maximum(moves - self.max_step, 0.0) ** 2).sum(axis=0))
         rows = np.arange(len(pans))
         pick = np.argmin(costs, axis=1)
         return _Arms(pans, elevations[rows, pick], fore_elevations[rows, pick],

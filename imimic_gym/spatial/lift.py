@@ -4,11 +4,14 @@
   in perspective). The shoulder sits on its pixel's ray at the depth where the shoulders'
   2-D distance (or, if shorter in depth, the torso's) matches a person's width; each bone's
   far end sits on its pixel's ray at the bone's length from its start: a quadratic in the
-  depth whose two roots are the bone turned toward or away from the camera. The pose
-  model's depth order picks the root, and where it barely tells them apart, continuity
-  with the previous frame does. A ray that misses the sphere (the 2-D bone is longer than
-  the length allows) takes its point nearest the bone's start: the bone lies in the image
-  plane and the length was too short, which `BoneLengthEstimator` learns from.
+  depth whose two roots are the bone turned toward or away from the camera. In
+  `lift_arm` the pose model's depth order picks the root, and where it barely tells them
+  apart, continuity with the previous frame does. `ArmLifter` instead keeps a Bayes
+  filter per arm bone on its signed share between the roots (`ShareFilter`: the bone's
+  2-D length and the model's depth as noisy readings) and takes its posterior mean. A
+  ray that misses the sphere (the 2-D bone is longer than the length allows) takes its
+  point nearest the bone's start: the bone lies in the image plane and the length was
+  too short, which `BoneLengthEstimator` learns from.
 - `from_depth`: keypoints back-projected through a metric depth image (an RGB-D camera).
 - `from_world_landmarks`: the pose model's own 3-D landmarks, moved into the camera frame
   (the baseline).
@@ -33,9 +36,10 @@ from imimic_gym.spatial.camera import Intrinsics
 from imimic_gym.spatial.smoothing import OneEuroFilter, OneEuroSettings
 
 __all__ = ["DEFAULT_DEPTH", "FLIP_PATIENCE", "KEYPOINT_NOISE", "LENGTH_QUANTILE", "LIMB_RADIUS",
-           "MAX_TURN_RATE", "ONE_EURO", "SIGN_MARGIN", "SIGN_THRESHOLD", "ArmLifter",
-           "BoneLengthEstimator", "BoneLengths", "from_depth", "from_world_landmarks",
-           "lift_arm", "neutral_pose", "out_of_plane", "shoulder_depth"]
+           "MAX_TURN_RATE", "ONE_EURO", "SHARE_FILTER", "SHARE_GRID", "SIGN_MARGIN",
+           "SIGN_THRESHOLD", "ArmLifter", "BoneLengthEstimator", "BoneLengths", "ShareFilter",
+           "from_depth", "from_world_landmarks", "lift_arm", "neutral_pose", "out_of_plane",
+           "predict_belief", "shoulder_depth", "uniform_belief"]
 
 _S, _E, _W, _H, _OS, _HIP, _OHIP = range(len(ARM_POINTS))
 # Where the shoulders' depth cannot be told (shoulders on one pixel): a person at arm's
@@ -182,6 +186,105 @@ def out_of_plane(ratio: float, noise: float) -> float:
     return min(float(weights @ _OUT_OF_PLANE_GRID) / total, 0.999)
 
 
+# The grid of a bone's signed share on which `ShareFilter` keeps its belief.
+SHARE_GRID = np.linspace(-1.0, 1.0, 101)
+
+
+@dataclass(frozen=True)
+class ShareFilter:
+    """`ArmLifter`'s Bayes filter on each arm bone's signed share: the bone's extent along
+    its far end's ray from the ray's point nearest its start, over its length, in
+    [-1, 1] (negative: toward the camera). Its prior is uniform (a direction uniform on
+    the sphere). Each frame it weighs two readings:
+
+    - the in-plane ratio r (the in-plane lower bound over the length), Gaussian about
+      sqrt(1 - share^2) with standard deviation ``keypoint_noise``, with an ``outlier``
+      share of readings taken to say nothing (a pose model stretches a foreshortened
+      limb's keypoints);
+    - the model's relative depth of the far end from the ray's nearest point, over the
+      length, Gaussian about ``depth_gain`` times the share with standard deviation
+      ``depth_noise``.
+
+    Between readings the belief spreads by a Gaussian of ``turn_rate`` (share/s) times
+    the time step, and a ``jump`` share of it spreads evenly (a turn the filter missed).
+    The bone takes the posterior mean of the share: where toward and away are equally
+    likely, the bone lies in the image plane, not at one of them at random.
+
+    All attributes are shares of the bone's length (``turn_rate`` per second), >= 0;
+    ``keypoint_noise`` and ``depth_noise`` > 0; ``outlier`` and ``jump`` in [0, 1).
+    """
+
+    keypoint_noise: float = 0.06
+    outlier: float = 0.05
+    depth_gain: float = 1.0
+    depth_noise: float = 1.0
+    turn_rate: float = 8.0
+    jump: float = 0.01
+
+    def __post_init__(self) -> None:
+        for name in ("keypoint_noise", "depth_noise"):
+            if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
+                raise ValueError(f"ShareFilter.{name} must be > 0, got {getattr(self, name)!r}")
+        for name in ("depth_gain", "turn_rate"):
+            if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
+                raise ValueError(f"ShareFilter.{name} must be >= 0, got "
+                                 f"{getattr(self, name)!r}")
+        for name in ("outlier", "jump"):
+            if not 0.0 <= getattr(self, name) < 1.0:
+                raise ValueError(f"ShareFilter.{name} must be in [0, 1), got "
+                                 f"{getattr(self, name)!r}")
+
+
+# The lift's Bayes filter on the arm bones' shares (`ArmLifter`).
+SHARE_FILTER = ShareFilter()
+
+
+def uniform_belief() -> np.ndarray:
+    """`ShareFilter`'s belief before any reading: uniform on `SHARE_GRID`."""
+    return np.full(SHARE_GRID.size, 1.0 / SHARE_GRID.size)
+
+
+def _filter_bone(start: np.ndarray, ray: np.ndarray, length: float,
+                 model_delta: float | None, belief: np.ndarray, settings: ShareFilter
+                 ) -> tuple[_Bone, np.ndarray]:
+    """The far end on ``ray`` at the posterior mean of the bone's share (`ShareFilter`),
+    given the ``belief`` (on `SHARE_GRID`, predicted to this frame) and this frame's
+    readings (``model_delta`` as `_solve_bone`'s), and the posterior."""
+    a = float(ray @ ray)
+    root_a = math.sqrt(a)
+    middle = float(ray @ start) / a  # t of the ray's point nearest the start
+    lower_bound = math.sqrt(max(float(start @ start) - a * middle * middle, 0.0))
+    missed = lower_bound > length
+    if not length > 0.0:
+        return _Bone(max(middle, _DEPTH_RANGE[0]) * ray, lower_bound, missed), belief
+    ratio = lower_bound / length
+    fit = np.exp(-0.5 * ((ratio - np.sqrt(1.0 - SHARE_GRID ** 2))
+                         / settings.keypoint_noise) ** 2)
+    log_like = np.log((1.0 - settings.outlier) * fit + settings.outlier + 1e-300)
+    if model_delta is not None:
+        evidence = (start[2] + model_delta - middle) * root_a / length
+        log_like -= 0.5 * ((evidence - settings.depth_gain * SHARE_GRID)
+                           / settings.depth_noise) ** 2
+    posterior = belief * np.exp(log_like - log_like.max())
+    total = float(posterior.sum())
+    posterior = posterior / total if total > 0.0 and math.isfinite(total) else uniform_belief()
+    share = float(posterior @ SHARE_GRID)
+    t = max(middle + share * length / root_a, _DEPTH_RANGE[0])
+    return _Bone(t * ray, lower_bound, missed), posterior
+
+
+def predict_belief(posterior: np.ndarray, settings: ShareFilter, dt: float) -> np.ndarray:
+    """``posterior`` (on `SHARE_GRID`) ``dt`` seconds on (`ShareFilter`'s spread)."""
+    step = float(SHARE_GRID[1] - SHARE_GRID[0])
+    spread = max(settings.turn_rate * max(dt, 0.0), 1e-6) / step  # grid steps
+    half = min(int(3 * spread) + 1, (SHARE_GRID.size - 1) // 2)
+    kernel = np.exp(-0.5 * (np.arange(-half, half + 1) / spread) ** 2)
+    moved = np.convolve(posterior, kernel / kernel.sum(), mode="same")
+    total = float(moved.sum())
+    moved = moved / total if total > 0.0 and math.isfinite(total) else uniform_belief()
+    return (1.0 - settings.jump) * moved + settings.jump / SHARE_GRID.size
+
+
 def _solve_bone(start: np.ndarray, ray: np.ndarray, length: float,
                 model_delta: float | None, previous: np.ndarray | None,
                 sign_threshold: float, noise: float = 0.0, sign_margin: float = 0.0,
@@ -266,10 +369,15 @@ def lift_arm(side: str, pixels: np.ndarray, confidence: np.ndarray,
 def _lift(side: str, pixels: np.ndarray, confidence: np.ndarray, depth: np.ndarray | None,
           intrinsics: Intrinsics, lengths: BoneLengths, depth_of_shoulder: float | None,
           previous: ArmPose | None, sign_threshold: float, sign_margin: float,
-          keypoint_noise: float, max_turn: np.ndarray
+          keypoint_noise: float, max_turn: np.ndarray,
+          beliefs: list[np.ndarray] | None = None, share_filter: ShareFilter | None = None
           ) -> tuple[ArmPose, np.ndarray, np.ndarray]:
     """`lift_arm` (``max_turn`` one per arm bone), the (3,) in-plane lower bounds of the
-    arm's bones (metres) and (3,) bool: which of them the turn limit overruled."""
+    arm's bones (metres) and (3,) bool: which of them the turn limit overruled. Given
+    ``share_filter`` and ``beliefs`` (one per arm bone, on `SHARE_GRID`, predicted to this
+    frame), the arm's bones are solved by the filter instead (`ShareFilter`; the sign
+    rules, ``keypoint_noise`` and ``max_turn`` unused) and ``beliefs`` is replaced in
+    place by their posteriors."""
     pixels, confidence = _check_inputs(side, pixels, confidence)
     if depth is not None:
         depth = np.asarray(depth, dtype=np.float64)
@@ -301,8 +409,16 @@ def _lift(side: str, pixels: np.ndarray, confidence: np.ndarray, depth: np.ndarr
         return bone
 
     solve(_S, _OS, lengths.shoulder_width)
-    bones = [solve(start, end, getattr(lengths, name), keypoint_noise, float(turn))
-             for (start, end, name), turn in zip(_ARM_BONES, max_turn, strict=True)]
+    if beliefs is not None and share_filter is not None:
+        bones = []
+        for k, (start, end, name) in enumerate(_ARM_BONES):
+            bone, beliefs[k] = _filter_bone(points[start], rays[end], getattr(lengths, name),
+                                            model_delta(start, end), beliefs[k], share_filter)
+            points[end] = bone.end
+            bones.append(bone)
+    else:
+        bones = [solve(start, end, getattr(lengths, name), keypoint_noise, float(turn))
+                 for (start, end, name), turn in zip(_ARM_BONES, max_turn, strict=True)]
     side_to_hip = math.hypot(lengths.torso,
                              0.5 * lengths.shoulder_width * (1.0 - _HIP_WIDTH_RATIO))
     solve(_S, _HIP, side_to_hip)
@@ -357,9 +473,11 @@ class BoneLengthEstimator:
 
 class ArmLifter:
     """The bone-length lift over a clip: `lift_arm` per frame, with the person's lengths
-    refined as it goes (`BoneLengthEstimator`, one per arm), continuity from the frame
-    before, and a One Euro filter (`smoothing.OneEuroFilter`) on the lifted 3-D points
-    (and, if asked, one on the 2-D keypoints before the lift).
+    refined as it goes (`BoneLengthEstimator`, one per arm), each arm bone's toward/away
+    extent from a Bayes filter over the frames (`ShareFilter`; or, without it, the
+    model's depth order with continuity and a turn limit), and a One Euro filter
+    (`smoothing.OneEuroFilter`) on the lifted 3-D points (and, if asked, one on the 2-D
+    keypoints before the lift).
 
     Args:
         intrinsics: the camera's.
@@ -369,14 +487,17 @@ class ArmLifter:
         smoothing: the One Euro settings of the 3-D points (metres; None: none).
         pixel_smoothing: those of the 2-D keypoints (pixels; None: none, the default:
             on synthetic clips its lag cost more than its smoothing gave).
-        sign_threshold: see `SIGN_THRESHOLD`.
-        sign_margin: see `SIGN_MARGIN`.
-        keypoint_noise: see `lift_arm` (`KEYPOINT_NOISE`).
         length_quantile: `BoneLengthEstimator`'s quantile.
+        share_filter: the arm bones' Bayes filter (`SHARE_FILTER`); None: the sign
+            rules below, one frame at a time.
+        sign_threshold: see `SIGN_THRESHOLD` (without ``share_filter``).
+        sign_margin: see `SIGN_MARGIN` (without ``share_filter``).
+        keypoint_noise: see `lift_arm` (`KEYPOINT_NOISE`; without ``share_filter``).
         max_turn_rate: rad/s, `lift_arm`'s ``max_turn`` per second since the last
-            reading (`MAX_TURN_RATE`; inf: no limit).
+            reading (`MAX_TURN_RATE`; inf: no limit; without ``share_filter``).
         flip_patience: s; a bone whose model depth order has been overruled this long
-            takes it (a wrong first choice is not kept for ever; `FLIP_PATIENCE`).
+            takes it (a wrong first choice is not kept for ever; `FLIP_PATIENCE`;
+            without ``share_filter``).
     """
 
     def __init__(self, intrinsics: Intrinsics, fps: float = 30.0,
@@ -387,9 +508,11 @@ class ArmLifter:
                  keypoint_noise: float = KEYPOINT_NOISE,
                  length_quantile: float = LENGTH_QUANTILE,
                  max_turn_rate: float = MAX_TURN_RATE,
-                 flip_patience: float = FLIP_PATIENCE) -> None:
+                 flip_patience: float = FLIP_PATIENCE,
+                 share_filter: ShareFilter | None = SHARE_FILTER) -> None:
         if not (math.isfinite(fps) and fps > 0):
             raise ValueError(f"fps must be a positive number, got {fps!r}")
+        self.share_filter = share_filter
         self.intrinsics, self.fps, self.refine = intrinsics, float(fps), refine
         self.prior = lengths if lengths is not None else BoneLengths()
         self.smoothing, self.pixel_smoothing = smoothing, pixel_smoothing
@@ -411,6 +534,7 @@ class ArmLifter:
         self.time: float | None = None
         self.calls = 0
         self.overruled_for = np.zeros(len(_ARM_BONES))  # s, per arm bone
+        self.beliefs = [uniform_belief() for _ in _ARM_BONES]  # `ShareFilter`'s
 
     def lengths(self, side: str) -> BoneLengths:
         """The lengths in use for the arm ``side``."""
@@ -432,6 +556,10 @@ class ArmLifter:
             self.pixel_filter.reset()
             self.overruled_for[:] = 0.0
             dt = 1.0 / self.fps
+            self.beliefs = [uniform_belief() for _ in _ARM_BONES]
+        elif self.share_filter is not None:
+            self.beliefs = [predict_belief(belief, self.share_filter, dt)
+                            for belief in self.beliefs]
         max_turn = np.where(self.overruled_for >= self.flip_patience - 1e-9, math.inf,
                             self.max_turn_rate * dt)
         smoothed = (self.pixel_filter.filter(pixels, dt) if self.pixel_smoothing is not None
@@ -439,7 +567,8 @@ class ArmLifter:
         pose, bounds, overruled = _lift(side, smoothed, confidence, depth, self.intrinsics,
                                         self.lengths(side), None, previous,
                                         self.sign_threshold, self.sign_margin,
-                                        self.keypoint_noise, max_turn)
+                                        self.keypoint_noise, max_turn,
+                                        self.beliefs, self.share_filter)
         self.overruled_for = np.where(overruled, self.overruled_for + dt, 0.0)
         self.estimators[side].observe(bounds)
         points = (self.filter.filter(pose.points, dt) if self.smoothing is not None

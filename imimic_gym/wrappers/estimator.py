@@ -192,7 +192,7 @@ class DONObservation(EstimatorObservation):
 
 class CNNObservation(EstimatorObservation):
     """`EstimatorObservation` with the CNN + refiner (registry name ``"cnn"``,
-    `estimators/cnn.py`), set up from the env: its frame rate, the clip's reference
+    `estimators/cnn/estimator.py`), set up from the env: its frame rate, the clip's reference
     direction, the number of links, and the robot's model for torques. Keypoints become
     joint angles, and the shared path estimator gives angular velocity, acceleration and
     torque.

@@ -21,7 +21,7 @@ from imimic_gym.clips.video import (
 )
 from imimic_gym.clips.video_load import load_video
 from imimic_gym.clips.video_writer import write_video
-from imimic_gym.estimators.don import DON
+from imimic_gym.estimators.don.one_link import DON
 from imimic_gym.metrics import angle_rmse_deg
 
 WARM_UP = 15  # frames: DON sees nothing before the arm has moved
@@ -38,12 +38,13 @@ def test_mp4_round_trip_keeps_dons_accuracy(servo_clip, servo_mp4) -> None:
     video = load_video(servo_mp4)
     assert video.frames.shape == servo_clip.frames.shape and video.fps == 30.0
     assert video.meta["skipped_frames"] == 0 and video.meta["source"] == "video"
-    # mp4v is lossy: close to the rendered pixels, not equal.
-    assert 0 < np.abs(video.frames.astype(int) - servo_clip.frames).mean() < 6
+    # mp4v is lossy: close to the rendered pixels, not equal (measured 1.67 grey levels).
+    assert 0 < np.abs(video.frames.astype(int) - servo_clip.frames).mean() < 3.5
     in_memory, decoded = don_rmse(servo_clip.frames, servo_clip), don_rmse(video.frames,
                                                                             servo_clip)
-    assert in_memory < 2.0
-    assert abs(decoded - in_memory) < 1.0
+    # measured 0.64 deg, 0.74 decoded (issue 40: about 2x, and a floor of 0.05)
+    assert in_memory < 1.3
+    assert abs(decoded - in_memory) < 0.25
 
 
 def test_fps_is_the_containers_float(tmp_path) -> None:
@@ -167,8 +168,9 @@ def test_coco_keypoints_give_the_true_elbow_angle(tmp_path) -> None:
     coco_file(tmp_path / "arm.json", arm)
     truth = truth_from_coco(tmp_path / "arm.json", len(clip), clip.fps, n_links=1,
                             reference_direction=0.0)
-    # The forearm's angle from the upper arm, from pixels alone: within a degree.
-    assert angle_rmse_deg(truth.angles, clip.truth.angles) < 1.0
+    # The forearm's angle from the upper arm, from pixels alone: measured 7e-6 deg, the
+    # round-off of the truth's float32 keypoints (issue 40: a floor of 0.001).
+    assert angle_rmse_deg(truth.angles, clip.truth.angles) < 0.001
     assert truth.visible.all() and truth.angles.shape == (30, 1)
 
 
@@ -231,7 +233,8 @@ def test_env_runs_a_video_with_and_without_annotations(servo_clip, servo_mp4, tm
     _, info = env.reset(seed=0)
     assert info["has_truth"] is True and np.isfinite(info["tracking_error_deg"])
     truth = env.unwrapped.clip.truth.angles
-    assert angle_rmse_deg(truth, servo_clip.truth.angles) < 1.0
+    # measured 2e-6 deg: the round-off of float32 keypoints (issue 40: a floor of 0.001)
+    assert angle_rmse_deg(truth, servo_clip.truth.angles) < 0.001
     _, reward, _, _, info = env.step(np.zeros(1, dtype=np.float32))
     assert info["reward_tracking"] < 0
 

@@ -35,7 +35,7 @@ def test_the_shipped_policy_loads_with_its_metadata_and_tracks_the_servo() -> No
     plain = run_episode(env, SCRIPTED_CONTROLLERS[control](env), seed=0).metrics()
     # Clip 100 starts with DON 34 degrees off for four frames (see test_scripted).
     assert learned["rmse_deg"] < plain["rmse_deg"]
-    assert learned["rmse_deg"] < 4.0
+    assert learned["rmse_deg"] < 3.0  # measured 1.47 deg (plain: 1.51) (issue 40: about 2x)
 
 
 def so101_env(n_frames: int = 12) -> gym.Env:

@@ -19,7 +19,7 @@ from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
 from imimic_gym.clips.video_writer import write_video
 from imimic_gym.controllers import OracleController
-from imimic_gym.estimators.pose import human_joint_ranges
+from imimic_gym.estimators.pose.planar import human_joint_ranges
 from imimic_gym.metrics import angle_rmse_deg
 from imimic_gym.rollout import run_episode
 
@@ -77,7 +77,7 @@ def test_unlabelled_frames_have_no_truth_no_reward_and_no_score(rendered_person)
     truth = env.unwrapped.clip.truth.angles
     assert metrics["rmse_deg"] == pytest.approx(
         angle_rmse_deg(trajectory.robot[known], truth[known]), rel=1e-9)
-    assert metrics["rmse_deg"] < 3.0
+    assert metrics["rmse_deg"] < 0.6  # measured 0.27 deg (issue 40: about 2x)
     env.close()
 
 
@@ -105,7 +105,7 @@ def test_the_oracle_follows_an_elbow_bent_past_the_servos_60_degrees(tmp_path) -
     env = gym.make("ImitateVideo-v0", clip=str(video), annotations=str(tmp_path / "elbow.json"))
     trajectory = run_episode(env, OracleController(env), seed=0)
     assert np.degrees(np.abs(trajectory.target)).max() > 115.0
-    assert trajectory.metrics()["rmse_deg"] < 3.0
+    assert trajectory.metrics()["rmse_deg"] < 2.5  # measured 1.26 deg (issue 40: about 2x)
     env.close()
 
 

@@ -8,8 +8,7 @@ import pytest
 
 from imimic_gym.estimators.baselines import CamShiftEstimator, MOG2Estimator
 from imimic_gym.estimators.types import Estimate
-
-from .test_don import FPS, PIVOT, H, W, sweep
+from tests.estimators.don.test_one_link import FPS, PIVOT, H, W, sweep
 
 
 def coloured_bar(angle: float) -> np.ndarray:
@@ -28,7 +27,7 @@ def test_baseline_follows_a_turning_bar(estimator) -> None:
         coloured_bar(a) for a in angles)
     assert all(isinstance(e, Estimate) for e in estimates)
     late = [abs(math.degrees(e.angles[0] - a)) for e, a in zip(estimates, angles, strict=True)][45:]
-    assert np.median(late) < 4.0
+    assert np.median(late) < 0.6  # measured 0.28 deg MOG2, 0.22 CamShift (issue 40: about 2x)
 
 
 @pytest.mark.parametrize("estimator", [MOG2Estimator, CamShiftEstimator])

@@ -4,8 +4,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from imimic_gym.arms import ArmSpec
 from imimic_gym.estimators.motion import PathEstimator, TorqueModel
+from imimic_gym.robots.planar import ArmSpec
 
 
 def test_a_corrected_location_recomputes_its_velocity_and_acceleration() -> None:

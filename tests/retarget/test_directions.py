@@ -188,11 +188,11 @@ def test_targets_stay_inside_the_joint_ranges_for_any_input(points, previous, si
     assert (target >= SPEC.lower).all() and (target <= SPEC.upper).all()
 
 
-def follow(path: list[ArmPose]) -> np.ndarray:
+def follow(path: list[ArmPose], retarget: DirectionRetargeter = RETARGET) -> np.ndarray:
     """(T, 6) targets along ``path``, each frame given the last."""
     targets, previous = [], None
     for pose in path:
-        previous = RETARGET(pose, previous)
+        previous = retarget(pose, previous)
         targets.append(previous)
     return np.array(targets)
 
@@ -291,10 +291,11 @@ def test_a_wave_reaches_over_the_top_to_point_the_forearm_up():
     assert degrees_between(got_upper, OUTWARD) < EXACT_DEG
 
 
-def test_a_waving_forearm_is_followed_without_flips():
-    # The arm rises sideways from hanging to outward, the elbow bending the forearm up
-    # as it goes (40 frames), holds (20 frames), then the forearm waves 30 degrees to
-    # either side of up in the body's plane, once a second for three seconds.
+def waving_arm() -> tuple[list[ArmPose], list[ArmPose]]:
+    """The arm rises sideways from hanging to outward, the elbow bending the forearm up
+    as it goes (40 frames), holds (20 frames); then (the second list) the forearm waves
+    30 degrees to either side of up in the body's plane, once a second for three
+    seconds."""
     path = []
     for i in range(40):
         rise = (i + 1) / 40 * math.pi / 2
@@ -306,8 +307,29 @@ def test_a_waving_forearm_is_followed_without_flips():
         sway = math.radians(30) * math.sin(2 * math.pi * i / 30)
         fore = direction(math.pi / 2 - abs(sway), math.pi / 2 if sway >= 0 else -math.pi / 2)
         waving.append(arm_pose(OUTWARD, fore))
+    return path, waving
+
+
+def test_a_waving_forearm_keeps_the_shoulder_in_front_by_default():
+    # The over-the-top solution points the forearm up but lies a swing of half a turn of
+    # the pan away; by default (`jump_cost`) the robot does not swing to it: it stays in
+    # front and points the forearm as near as it can from there (measured: the pan
+    # ranges 59.7 degrees over the rise and the wave, the forearm within 42.5 degrees).
+    path, waving = waving_arm()
     targets = follow(path + waving)
     assert np.degrees(np.abs(np.diff(targets, axis=0))).max() <= MAX_STEP_DEG + 1e-9
+    assert np.degrees(np.ptp(targets[:, 0])) < 90.0
+    fore_errors = [degrees_between(robot_arm_directions(SPEC, q)[1],
+                                   pose.in_arm_frame(pose.forearm))
+                   for q, pose in zip(targets[len(path):], waving, strict=True)]
+    assert max(fore_errors) < 45.0
+
+
+def test_without_a_jump_cost_a_waving_forearm_is_followed_over_the_top_without_flips():
+    path, waving = waving_arm()
+    targets = follow(path + waving, DirectionRetargeter(SPEC, jump_cost=0.0))
+    assert np.degrees(np.abs(np.diff(targets, axis=0))).max() <= MAX_STEP_DEG + 1e-9
+    assert np.degrees(np.ptp(targets[:, 0])) > 170.0  # the pan turned half a turn
     wave_targets = targets[len(path):]
     fore_errors = [degrees_between(robot_arm_directions(SPEC, q)[1],
                                    pose.in_arm_frame(pose.forearm))
@@ -325,3 +347,5 @@ def test_a_fixed_value_outside_its_range_is_refused():
 def test_a_negative_weight_is_refused():
     with pytest.raises(ValueError, match="forearm_weight and flexion_weight must be >= 0"):
         DirectionRetargeter(SPEC, forearm_weight=-0.1)
+    with pytest.raises(ValueError, match=r"jump_cost, .* must be >= 0"):
+        DirectionRetargeter(SPEC, jump_cost=-1.0)

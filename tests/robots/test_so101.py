@@ -110,9 +110,10 @@ def test_the_servos_hold_a_pose_under_gravity():
     data.qpos[:] = data.ctrl[:] = pose
     run(model, data, 4.0)  # simulated seconds
     assert np.isfinite(data.qpos).all()
-    # Gravity sags the loaded lift by under a degree (kp 50 N m/rad); it comes to rest.
+    # Gravity sags the loaded lift by under a degree (kp 50 N m/rad): measured 0.55; it
+    # comes to rest: measured 1.2e-5 rad/s (issue 40: about 2x).
     assert np.degrees(np.abs(data.qpos - pose)).max() < 1.0
-    assert np.abs(data.qvel).max() < 1e-3
+    assert np.abs(data.qvel).max() < 3e-5
 
 
 def test_the_position_servo_reaches_a_target_in_half_a_second():
@@ -121,8 +122,9 @@ def test_the_position_servo_reaches_a_target_in_half_a_second():
     target = np.radians([45, 45, -45, 30, 60, 50])
     data.ctrl[:] = target
     run(model, data, 0.5)  # simulated seconds
+    # measured 0.84 deg off and 0.0023 rad/s (issue 40: about 2x)
     assert np.degrees(np.abs(data.qpos - target)).max() < 1.5
-    assert np.abs(data.qvel).max() < 0.05
+    assert np.abs(data.qvel).max() < 0.005
 
 
 def test_forward_kinematics_names_a_wrong_shape():

@@ -39,7 +39,9 @@ def test_one_epoch_run_writes_a_checkpoint_that_eval_only_scores_the_same(tmp_pa
     scored = json.loads((tmp_path / "pcp.json").read_text())
     trained = meta["test"]["cnn_refiner"]
     assert scored["cnn_refiner"]["pcp_all"] == trained["pcp_all"]
-    assert abs(scored["cnn_refiner"]["mean_pixel_error"] - trained["mean_pixel_error"]) < 0.5
+    # The same network scored twice: measured 2.6e-4 px apart, float32 round-off (issue 40:
+    # a floor of 0.01 px).
+    assert abs(scored["cnn_refiner"]["mean_pixel_error"] - trained["mean_pixel_error"]) < 0.01
 
 
 def test_help_explains_every_option(tmp_path: Path) -> None:

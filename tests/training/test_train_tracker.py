@@ -53,8 +53,9 @@ def test_a_tiny_training_run_writes_a_policy_that_loads_and_tracks(tmp_path) -> 
     env = DONObservation(gym.make("ImitateVideo-v0", scenario="exp2-servo", n_frames=20,
                                   control="velocity", clip_seeds=(900,)), keep_frame=False)
     metrics = run_episode(env, LearnedController(env, out), seed=0).metrics()
-    # 80 steps teach nothing, and the residual is bounded: it stays near the servo.
-    assert np.isfinite(metrics["rmse_deg"]) and metrics["rmse_deg"] < 40.0
+    # 80 steps teach nothing, and the residual is bounded: it stays near the servo; measured
+    # 4.3 deg on clip seed 900 (issue 40: about 2x).
+    assert np.isfinite(metrics["rmse_deg"]) and metrics["rmse_deg"] < 9.0
 
 
 def test_a_tiny_3d_run_writes_a_policy_that_drives_the_so101(tmp_path) -> None:
@@ -99,7 +100,8 @@ def test_ppo_is_selectable_and_its_policy_loads(tmp_path) -> None:
     env = DONObservation(gym.make("ImitateVideo-v0", scenario="exp2-servo", n_frames=20,
                                   clip_seeds=(900,)), keep_frame=False)
     metrics = run_episode(env, LearnedController(env, out), seed=0).metrics()
-    assert np.isfinite(metrics["rmse_deg"]) and metrics["rmse_deg"] < 40.0
+    # measured 8.4 deg on clip seed 900 (issue 40: about 2x)
+    assert np.isfinite(metrics["rmse_deg"]) and metrics["rmse_deg"] < 17.0
 
 
 def test_no_timesteps_is_refused_and_a_smoke_run_leaves_the_shipped_policy_alone(

@@ -24,7 +24,9 @@ def test_cnn_observation_drives_the_robot_after_the_forearm() -> None:
     assert np.all(np.isfinite(obs["estimate"])) and obs["estimate"][fields["trust"]] == 1.0
     trajectory = run_episode(env, PDController(env, EstimateTarget(env)), seed=0)
     rmse = trajectory.metrics()["rmse_deg"]
-    assert rmse < 10.0 and rmse < 0.5 * still_arm_rmse(env, trajectory)
+    # measured 4.6 deg against the still arm's 33.3 (0.14 of it) on clip seed 7 (issue 40:
+    # about 2x)
+    assert rmse < 10.0 and rmse < 0.3 * still_arm_rmse(env, trajectory)
 
 
 def test_cnn_observation_follows_two_links_better_than_a_still_arm() -> None:
@@ -32,6 +34,9 @@ def test_cnn_observation_follows_two_links_better_than_a_still_arm() -> None:
                                   n_frames=45), keep_frame=False)
     trajectory = run_episode(env, PDController(env, EstimateTarget(env)), seed=0)
     assert env.observation_space["estimate"].shape == (10,)
+    # measured 23.5 deg against the still arm's 29.8 on clip seed 7: 21% better (the ratio
+    # 0.35-0.79 on seeds 7-11, the elbow 14-31 deg off: the shipped 2-link CNN is weak);
+    # the bound asks for about half that gain (issue 40)
     assert trajectory.metrics()["rmse_deg"] < 0.9 * still_arm_rmse(env, trajectory)
 
 

@@ -7,7 +7,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import imimic_gym  # noqa: F401
 from imimic_gym.controllers import EstimateTarget, PDController
-from imimic_gym.estimators.config import don_preset
+from imimic_gym.estimators.don.config import don_preset
 from imimic_gym.estimators.types import Estimate
 from imimic_gym.metrics import angle_rmse_deg
 from imimic_gym.rollout import run_episode
@@ -57,8 +57,10 @@ def test_estimate_follows_the_servo_through_the_env(modality: str) -> None:
         estimated.append(obs["estimate"][fields["angles"]])
         truth.append(info["target_angles"])
         done = terminated or truncated
-    # After half a second of warm-up (DON needs motion to find the pivot).
-    assert angle_rmse_deg(np.array(estimated)[15:], np.array(truth)[15:]) < 3.0
+    # After half a second of warm-up (DON needs motion to find the pivot): measured 0.87 deg
+    # on colour, 0.30 on depth, clip seed 0 (issue 40: about 2x).
+    bound = {"rgb": 1.8, "depth": 0.6}[modality]
+    assert angle_rmse_deg(np.array(estimated)[15:], np.array(truth)[15:]) < bound
 
 
 def test_don_smooths_depth_video_and_not_colour() -> None:
@@ -76,7 +78,8 @@ def test_don_smooths_depth_video_and_not_colour() -> None:
 def test_pd_on_don_drives_the_robot_close_to_the_human() -> None:
     env = DONObservation(servo_env(), keep_frame=False)
     trajectory = run_episode(env, PDController(env, EstimateTarget(env)), seed=0)
-    assert angle_rmse_deg(trajectory.robot[30:], trajectory.target[30:]) < 4.0
+    # measured 1.26 deg on clip seed 0 (issue 40: about 2x)
+    assert angle_rmse_deg(trajectory.robot[30:], trajectory.target[30:]) < 2.5
 
 
 def test_render_draws_the_estimate_on_the_video_half_only() -> None:

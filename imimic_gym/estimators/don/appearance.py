@@ -24,9 +24,9 @@ from typing import Any
 import cv2
 import numpy as np
 
-from imimic_gym.estimators.compiled import best_ray, close_colour_mean, colour_match
-from imimic_gym.estimators.config import AppearanceConfig
-from imimic_gym.estimators.regions import reach_square
+from imimic_gym.estimators.don.compiled import best_ray, close_colour_mean, colour_match
+from imimic_gym.estimators.don.config import AppearanceConfig
+from imimic_gym.estimators.don.regions import reach_square
 from imimic_gym.kinematics import wrap_angle
 
 __all__ = ["LinkAppearance", "match_table"]

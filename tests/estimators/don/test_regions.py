@@ -8,11 +8,11 @@ import cv2
 import numpy as np
 import pytest
 
-from imimic_gym.estimators.config import TrackerConfig
+from imimic_gym.estimators.don.config import TrackerConfig
+from imimic_gym.estimators.don.link_tracker import LinkTracker
+from imimic_gym.estimators.don.pivot import PivotEstimator
+from imimic_gym.estimators.don.regions import component_lines
 from imimic_gym.estimators.joint_range import within_range
-from imimic_gym.estimators.link_tracker import LinkTracker
-from imimic_gym.estimators.pivot import PivotEstimator
-from imimic_gym.estimators.regions import component_lines
 
 EDGE_MEMORY, RIGID_FRAMES = TrackerConfig().edge_memory, TrackerConfig().rigid_frames
 
@@ -131,7 +131,9 @@ def test_pivot_solve_ignores_crossings_far_beyond_the_regions() -> None:
     for line in distant + slivers:
         solver.add_line(line)
     found = solver._solve()
-    assert found is not None and np.hypot(*(found - pivot)) < 2.0
+    # measured 0 px: the slivers lie symmetrically about the pivot, so the bound is a
+    # float round-off floor (issue 40)
+    assert found is not None and np.hypot(*(found - pivot)) < 0.05
 
 
 def test_an_edge_sliding_sideways_does_not_feed_the_pivot() -> None:
@@ -246,7 +248,8 @@ def test_a_region_next_to_the_pivot_is_not_read_pointing_out_of_the_joint_range(
     start, end = pivot + 8 * direction, pivot + 30 * direction
     cv2.line(along, tuple(np.rint(start).astype(int)), tuple(np.rint(end).astype(int)), 255, 2)
     reading = tracker.measure(component_lines(along, min_area=4), pivot, None)
-    assert reading is not None and abs(math.degrees(reading[0]) - 60) < 3
+    # measured 0.08 deg (issue 40: about 2x, and a floor of 0.05)
+    assert reading is not None and abs(math.degrees(reading[0]) - 60) < 0.2
 
 
 def test_within_range_moves_an_angle_past_a_limit_to_the_nearer_limit() -> None:
@@ -272,7 +275,9 @@ def test_before_the_pivot_a_short_blob_is_no_guess() -> None:
     long = np.zeros((120, 160), dtype=np.uint8)
     cv2.line(long, (40, 90), (54, 76), 255, thickness=3)  # 20 px at 45 degrees
     angle, _ = tracker.before_pivot(tracker.lines(long))
-    assert math.degrees(angle) == pytest.approx(45.0, abs=2.0)
+    # measured 3e-13 deg off: a line drawn at 45 degrees is symmetric about its axis, so
+    # the bound is a float round-off floor (issue 40)
+    assert math.degrees(angle) == pytest.approx(45.0, abs=0.01)
 
 
 def _tracker_after_a_board_side_slid() -> LinkTracker:
@@ -300,7 +305,9 @@ def test_before_the_pivot_a_region_where_a_sliding_edge_should_be_is_no_guess() 
     lines = tracker.lines(mask)
     assert not tracker.sliding.any()
     angle, _ = tracker.before_pivot(lines)
-    assert math.degrees(angle) == pytest.approx(45.0, abs=3.0)
+    # measured 0 deg off: the sliver is drawn at 45 degrees, symmetric about its axis, so
+    # the bound is a float round-off floor (issue 40)
+    assert math.degrees(angle) == pytest.approx(45.0, abs=0.01)
 
 
 def test_before_the_pivot_a_sliding_edge_that_stopped_is_still_no_guess() -> None:
@@ -319,6 +326,7 @@ def test_before_the_pivot_a_sliding_edge_that_stopped_is_still_no_guess() -> Non
                round(90 - 17 * math.sin(math.radians(degrees))))
         cv2.line(mask, (40, 90), tip, 255, thickness=3)
         angle, _ = tracker.before_pivot(tracker.lines(mask))
+        # measured 2.0 deg at most: the 17 px sliver's tip rounded to whole pixels
         assert math.degrees(angle) == pytest.approx(degrees, abs=4.0), frame
     assert tracker.edges.expected == []  # the slide itself is forgotten by now
 
@@ -336,7 +344,7 @@ def test_before_the_pivot_a_forearm_merged_with_a_sliding_edge_is_found_past_it(
     assert len(lines) == 1
     assert tracker.before_pivot(lines) is None
     angle, _ = tracker.before_pivot(lines, mask)
-    assert math.degrees(angle) == pytest.approx(30.0, abs=4.0)
+    assert math.degrees(angle) == pytest.approx(30.0, abs=1.6)  # measured 0.81 (issue 40: ~2x)
 
 
 def test_before_the_pivot_what_is_left_of_a_board_s_corner_is_no_guess() -> None:
@@ -354,6 +362,7 @@ def test_before_the_pivot_what_is_left_of_a_board_s_corner_is_no_guess() -> None
     assert len(lines) == 1
     assert tracker.before_pivot(lines) is None
     angle, _ = tracker.before_pivot(lines, mask)
+    # measured 1.4 deg (issue 40: about 2x)
     assert math.degrees(angle) == pytest.approx(math.degrees(math.atan2(11, 18)), abs=3.0)
 
 

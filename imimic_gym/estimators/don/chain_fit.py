@@ -17,7 +17,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from imimic_gym.estimators.config import LinkedDONConfig
+from imimic_gym.estimators.don.config import LinkedDONConfig
 from imimic_gym.kinematics import wrap_angle
 
 __all__ = ["Chain", "blob_ends", "corner", "direction_of", "facing_point", "segment_score",

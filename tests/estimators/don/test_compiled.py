@@ -9,8 +9,8 @@ import cv2
 import numpy as np
 import pytest
 
-from imimic_gym.estimators.appearance import _match, match_table
-from imimic_gym.estimators.compiled import (
+from imimic_gym.estimators.don.appearance import _match, match_table
+from imimic_gym.estimators.don.compiled import (
     best_ray,
     close_colour_mean,
     keep_window_changes,
@@ -19,7 +19,7 @@ from imimic_gym.estimators.compiled import (
     region_moments,
     running_extrema,
 )
-from imimic_gym.estimators.config import AppearanceConfig
+from imimic_gym.estimators.don.config import AppearanceConfig
 
 COLOUR = AppearanceConfig()  # the appearance layer's defaults
 MATCH = match_table(COLOUR.sigma)

@@ -23,7 +23,7 @@ from collections import deque
 import cv2
 import numpy as np
 
-from imimic_gym.estimators.compiled import keep_window_changes, running_extrema
+from imimic_gym.estimators.don.compiled import keep_window_changes, running_extrema
 from imimic_gym.estimators.frames import WorkingFrames
 
 __all__ = ["MotionMask", "SlidingExtrema"]

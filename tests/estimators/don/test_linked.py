@@ -8,9 +8,9 @@ import pytest
 
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
-from imimic_gym.estimators.chain_fit import blob_ends, facing_point, segment_score
-from imimic_gym.estimators.config import LinkedDONConfig
-from imimic_gym.estimators.don_links import LinkedDON
+from imimic_gym.estimators.don.chain_fit import blob_ends, facing_point, segment_score
+from imimic_gym.estimators.don.config import LinkedDONConfig
+from imimic_gym.estimators.don.linked import LinkedDON
 from imimic_gym.kinematics import wrap_angle
 
 FPS = 30.0
@@ -72,10 +72,12 @@ def test_two_bars_give_both_angles_and_rates() -> None:
     error = np.degrees(np.abs(wrap_angle(np.array([e.angles for e in late]) - q[-10:])))
     # The forearm's farthest moving pixel lies past its end (half the bar's width plus a
     # frame of motion), so its measured length is long and the elbow reads a few degrees
-    # open: measured 3.4 and 6.8 degrees at most (the appearance layer's case, below).
-    assert error.max(axis=0).tolist() == pytest.approx([0, 0], abs=8.0)
+    # open: measured 3.4 and 6.8 degrees at most (the appearance layer's case, below). The
+    # shoulder's bound is about twice that (issue 40), the elbow's left at 1.2x.
+    assert np.all(error.max(axis=0) < [7.0, 8.0]), error.max(axis=0)
     omega = np.array([e.omega for e in late]).mean(axis=0)
-    assert omega.tolist() == pytest.approx([0.6, -0.45], abs=0.1)  # rad/s: signs, magnitudes
+    # rad/s: signs, magnitudes; measured 0.002 and 0.031 off (issue 40: about 2x)
+    assert omega.tolist() == pytest.approx([0.6, -0.45], abs=0.06)
     lengths = don.lengths() * don.scale
     assert lengths.tolist() == pytest.approx(LENGTHS, rel=0.25)
 
@@ -104,7 +106,8 @@ def test_appearance_layer_reads_each_links_direction_without_its_length() -> Non
         angles = np.array([e.angles for e in don.run(two_bars(a) for a in q)])
         errors[appearance] = np.degrees(np.abs(wrap_angle(angles[20:] - q[20:]))).max(axis=0)
     assert errors[False].max() > 5.0  # measured 3.5 and 7.0 degrees at most
-    assert errors[True].tolist() == pytest.approx([0, 0], abs=2.0)  # measured 0.5 and 1.5
+    # measured 0.5 and 1.5 (issue 40: the shoulder's about 2x, the elbow's left at 1.4x)
+    assert np.all(errors[True] < [1.1, 2.0]), errors[True]
 
 
 def test_rendered_two_link_chain_is_followed_per_joint() -> None:
@@ -117,8 +120,9 @@ def test_rendered_two_link_chain_is_followed_per_joint() -> None:
     angles = np.array([e.angles for e in don.run(clip.frames)])
     error = np.degrees(wrap_angle(angles[15:] - clip.truth.angles[15:]))
     rmse = np.sqrt(np.mean(error**2, axis=0))
-    # Measured 0.5 and 2.3 degrees (2.4 and 4.2 with appearance=False).
-    assert rmse.tolist() == pytest.approx([0, 0], abs=3.5)
+    # Measured 0.5 and 2.3 degrees (2.4 and 4.2 with appearance=False); the shoulder's
+    # bound about twice that (issue 40), the elbow's left at 1.5x.
+    assert np.all(rmse < [1.0, 3.5]), rmse
 
 
 @pytest.mark.parametrize("seed", [13, 21])
@@ -135,10 +139,12 @@ def test_rendered_chain_with_the_shoulder_found_is_not_locked_wrong(seed: int) -
                     reference_direction=spec.reference_direction)
     angles = np.array([e.angles for e in don.run(clip.frames)])
     error = np.degrees(wrap_angle(angles[15:] - clip.truth.angles[15:]))
-    # Measured 0.9 and 2.3 degrees (clip 13), 0.9 and 1.6 (clip 21).
-    assert np.sqrt(np.mean(error**2, axis=0)).tolist() == pytest.approx([0, 0], abs=5.5)
+    # Measured 0.9 and 2.3 degrees (clip 13), 0.9 and 1.6 (clip 21) (issue 40: about 2x).
+    rmse = np.sqrt(np.mean(error**2, axis=0))
+    assert np.all(rmse < [1.9, 4.6]), rmse
     shoulder = clip.truth.keypoints[:, 0].mean(axis=0)
-    assert np.hypot(*(don.pivot() * don.scale - shoulder)) < 9.0  # input px
+    # input px; measured 5.2 (clip 13) and 6.4 (clip 21)
+    assert np.hypot(*(don.pivot() * don.scale - shoulder)) < 9.0
 
 
 def test_rendered_three_link_chain_keeps_the_colour_the_fit_disagrees_with() -> None:
@@ -154,7 +160,9 @@ def test_rendered_three_link_chain_keeps_the_colour_the_fit_disagrees_with() -> 
                     reference_direction=spec.reference_direction)
     angles = np.array([e.angles for e in don.run(clip.frames)])
     error = np.degrees(wrap_angle(angles[15:, :2] - clip.truth.angles[15:, :2]))
-    assert np.sqrt(np.mean(error**2, axis=0)).tolist() == pytest.approx([0, 0], abs=6.0)
+    # measured 1.1 and 3.0 degrees (issue 40: about 2x)
+    rmse = np.sqrt(np.mean(error**2, axis=0))
+    assert np.all(rmse < [2.3, 6.0]), rmse
 
 
 def test_no_motion_black_frames_and_short_clips_give_finite_estimates() -> None:
@@ -218,7 +226,7 @@ def test_torque_is_the_robot_models_inverse_dynamics() -> None:
 def test_noise_and_flashes_are_not_trusted_and_leave_no_velocity() -> None:
     """Frames that change all over (noise, a flash, a cut) are no link's motion: trust 0
     and the arm held, not the 0.83 that noise used to earn, nor a burst of velocity."""
-    from imimic_gym.estimators.don import DON
+    from imimic_gym.estimators.don.one_link import DON
 
     rng = np.random.default_rng(0)
     noise = [rng.integers(0, 256, (240, 320, 3), dtype=np.uint8) for _ in range(30)]
@@ -234,4 +242,5 @@ def test_noise_and_flashes_are_not_trusted_and_leave_no_velocity() -> None:
     assert all(e.trust == 0.0 for e in estimates[60:70])
     held = [e.angles for e in estimates[60:70]]
     assert all(np.array_equal(h, held[0]) for h in held)
-    assert max(np.abs(e.omega).max() for e in estimates[60:80]) < 10.0  # rad/s
+    # rad/s; measured 0: no rate across the gap (issue 40: a floor of 0.05)
+    assert max(np.abs(e.omega).max() for e in estimates[60:80]) < 0.05

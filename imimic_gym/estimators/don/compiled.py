@@ -1,5 +1,5 @@
 """DON's per-frame inner loops, compiled with numba: the pivot solve and the regions'
-moments (`regions.py`), layer 3 and the window's running extrema (`don.py`), and the
+moments (`regions.py`), layer 3 and the window's running extrema (`one_link.py`), and the
 appearance layer's colour match, choice of ray and colour-learning mean (`appearance.py`).
 
 DON spent most of a frame at 240x320 not in OpenCV's work but in the interpreter, issuing a
@@ -8,7 +8,7 @@ fixed cost is most of its time (benchmarks/RESULTS.md, "What made DON faster"). 
 here replaces such a run of calls with one compiled call. It computes exactly what the
 calls it replaces computed: the same operations on the same values in the same order
 (numpy's pairwise summation and OpenCV's rounding included), so every estimate is
-bit-identical (`benchmarks/don_same_estimates.py`; tests/estimators/test_compiled.py holds
+bit-identical (`benchmarks/don_same_estimates.py`; tests/estimators/don/test_compiled.py holds
 each loop to the calls it replaced).
 
 Compiled on first use and cached on disk beside this file (numba's ``cache=True``; a

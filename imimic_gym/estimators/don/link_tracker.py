@@ -20,16 +20,16 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from imimic_gym.estimators.config import TrackerConfig
-from imimic_gym.estimators.edge_memory import EdgeMemory
-from imimic_gym.estimators.joint_range import pointing_range
-from imimic_gym.estimators.pivot import PivotEstimator
-from imimic_gym.estimators.regions import (
+from imimic_gym.estimators.don.config import TrackerConfig
+from imimic_gym.estimators.don.edge_memory import EdgeMemory
+from imimic_gym.estimators.don.pivot import PivotEstimator
+from imimic_gym.estimators.don.regions import (
     component_lines,
     erase_edges,
     follow,
     reach_square,
 )
+from imimic_gym.estimators.joint_range import pointing_range
 from imimic_gym.kinematics import wrap_angle
 
 __all__ = ["LinkTracker"]

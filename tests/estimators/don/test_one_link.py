@@ -7,10 +7,10 @@ import cv2
 import numpy as np
 import pytest
 
-from imimic_gym.estimators.config import DONConfig
-from imimic_gym.estimators.don import DON, FrameShapeError
-from imimic_gym.estimators.motion_mask import SlidingExtrema
-from imimic_gym.estimators.regions import component_lines
+from imimic_gym.estimators.don.config import DONConfig
+from imimic_gym.estimators.don.motion_mask import SlidingExtrema
+from imimic_gym.estimators.don.one_link import DON, FrameShapeError
+from imimic_gym.estimators.don.regions import component_lines
 from imimic_gym.kinematics import wrap_angle
 
 H, W, FPS = 240, 320, 30.0
@@ -57,18 +57,20 @@ def test_a_bar_turning_at_a_known_rate_gives_that_angle_and_omega() -> None:
         if i > 30 and abs(math.degrees(a) - 90) < 50  # clear of the turning points
     ]
     errors = [abs(math.degrees(e.angles[0] - a)) for e, a in steady]
-    assert max(errors) < 2.0 and np.mean(errors) < 0.8
+    assert max(errors) < 1.1 and np.mean(errors) < 0.3  # measured 0.54, 0.15 (issue 40: ~2x)
     omegas = [abs(math.degrees(e.omega[0])) for e, _ in steady]
-    assert np.median(omegas) == pytest.approx(rate * FPS, rel=0.05)
+    # measured 0.29% off (issue 40: about 2x)
+    assert np.median(omegas) == pytest.approx(rate * FPS, rel=0.006)
     pivot = don.link.pivot() * don.scale
-    assert np.hypot(*(pivot - PIVOT)) < 3.0
+    assert np.hypot(*(pivot - PIVOT)) < 1.4  # px; measured 0.68 (issue 40: about 2x)
 
 
 def test_a_known_pivot_is_used_from_the_first_moving_frame() -> None:
     angles = sweep(3.0, 20, start_deg=60)
     don = DON(fps=FPS, pivot=tuple(PIVOT))
     estimates = don.run(bar_frame(a) for a in angles)
-    assert abs(math.degrees(estimates[5].angles[0] - angles[5])) < 2.0
+    # measured 0.13 deg (issue 40: about 2x, and a floor of 0.05)
+    assert abs(math.degrees(estimates[5].angles[0] - angles[5])) < 0.3
 
 
 def before_the_pivot(don: DON, frames: list[np.ndarray]) -> list:
@@ -90,7 +92,7 @@ def test_omega_does_not_wait_for_the_pivot() -> None:
     assert len(estimates) >= 10
     assert estimates[0].trust == 0.0  # the placeholder, before anything moved
     omegas = [math.degrees(e.omega[0]) for e in estimates[3:]]
-    assert np.median(omegas) == pytest.approx(3.0 * FPS, rel=0.1)
+    assert np.median(omegas) == pytest.approx(3.0 * FPS, rel=0.055)  # measured 2.7% off
 
 
 def test_eta_sees_an_occluder_before_the_pivot_is_agreed() -> None:
@@ -181,7 +183,8 @@ def test_a_region_where_the_joint_cannot_turn_is_not_the_link() -> None:
         frames.append(frame)
     estimates = DON(fps=FPS, joint_range=(0.0, math.pi)).run(frames)
     errors = [abs(math.degrees(e.angles[0] - a)) for e, a in zip(estimates, angles, strict=True)]
-    assert max(errors[10:30]) < 3.0 and max(errors[-10:]) < 3.0
+    # measured 1.25 and 1.98 deg (issue 40: about 2x, the second left at 1.5x)
+    assert max(errors[10:30]) < 2.5 and max(errors[-10:]) < 3.0
 
 
 def test_no_reported_angle_passes_the_joints_limits() -> None:
@@ -196,15 +199,17 @@ def test_no_reported_angle_passes_the_joints_limits() -> None:
     reported = np.degrees([e.angles[0] for e in estimates])
     assert reported.min() >= 30.0 - 1e-9 and reported.max() <= 150.0 + 1e-9
     assert reported[-1] == pytest.approx(30.0)
-    assert abs(reported[25] - math.degrees(angles[25])) < 3.0  # inside the range: as read
+    # inside the range: as read (measured 0.15 deg; issue 40: about 2x)
+    assert abs(reported[25] - math.degrees(angles[25])) < 0.3
 
 
 def test_motion_stopping_holds_the_last_angle() -> None:
     angles = sweep(3.0, 40, start_deg=40)
     frames = [bar_frame(a) for a in angles] + [bar_frame(angles[-1])] * 10
     estimates = DON(fps=FPS).run(frames)
+    # measured 0.008 deg apart (issue 40: a floor of 0.05 on a held angle)
     assert math.degrees(estimates[-1].angles[0]) == pytest.approx(
-        math.degrees(estimates[-10].angles[0]), abs=2.0)
+        math.degrees(estimates[-10].angles[0]), abs=0.05)
     assert estimates[-1].omega[0] == 0.0
 
 
@@ -268,7 +273,8 @@ def test_a_sweeping_board_does_not_drag_a_found_pivot() -> None:
         don.update(frame)
         if i == 39:
             found = don.link.pivot() * don.scale
-    assert np.hypot(*(found - PIVOT)) < 3.0
+    # px; measured 0.81 and 2.86 (issue 40: about 2x, the second left at its 3 px)
+    assert np.hypot(*(found - PIVOT)) < 1.6
     assert np.hypot(*(don.link.pivot() * don.scale - PIVOT)) < 3.0
 
 
@@ -287,7 +293,7 @@ def test_an_edge_sweeping_across_the_joint_is_not_the_link() -> None:
         frames.append(frame)
     estimates = DON(fps=FPS, pivot=tuple(PIVOT), joint_range=(0.0, math.pi)).run(frames)
     errors = [abs(math.degrees(e.angles[0] - rest)) for e in estimates[30:]]
-    assert max(errors) < 3.0
+    assert max(errors) < 1.6  # measured 0.79 deg (issue 40: about 2x)
 
 
 def test_a_radius_measured_on_a_short_first_movement_does_not_lock_the_link_out() -> None:
@@ -299,7 +305,7 @@ def test_a_radius_measured_on_a_short_first_movement_does_not_lock_the_link_out(
     estimates = DON(fps=FPS, pivot=tuple(PIVOT), joint_range=(0.0, math.pi)).run(frames)
     errors = [abs(math.degrees(e.angles[0] - a))
               for e, a in zip(estimates[-30:], bar[-30:], strict=True)]
-    assert max(errors) < 3.0
+    assert max(errors) < 1.4  # measured 0.69 deg (issue 40: about 2x)
 
 
 def test_a_board_crossing_the_first_movement_does_not_fix_a_wrong_pivot() -> None:
@@ -315,7 +321,8 @@ def test_a_board_crossing_the_first_movement_does_not_fix_a_wrong_pivot() -> Non
     don = DON(fps=clip.fps, reference_direction=spec.reference_direction,
               joint_range=spec.joint_ranges[0])
     angles = np.array([e.angles for e in don.run(clip.frames)])
-    assert angle_rmse_deg(angles[15:], clip.truth.angles[15:]) < 30.0
+    # measured 2.1 deg on seed 100 (issue 40: about 2x)
+    assert angle_rmse_deg(angles[15:], clip.truth.angles[15:]) < 4.5
 
 
 @pytest.mark.parametrize("search_when_lost", [False, True])
@@ -325,10 +332,8 @@ def test_a_forearm_back_in_view_after_the_board_is_read_while_it_rests(
     turning (DON: hidden) and comes out at frame 88, nearly at rest. Without
     ``search_when_lost`` DON holds the angle it vanished at, 16.6 degrees off at frame
     88; with it (the default) the appearance layer looks for its colour everywhere the
-    elbow can turn and reads it (measured within 4.3 degrees over frames 88-100, the
-    most at frame 88 with 42% of the forearm still behind the board; 1.2 before the
-    colour was also learned from less trusted readings, at a slightly different
-    shade)."""
+    elbow can turn and reads it (measured within 1.3 degrees over frames 88-100; the
+    bound is about twice that, issue 40)."""
     from imimic_gym.clips import load_clip
     from imimic_gym.clips.scenarios import get_scenario
 
@@ -339,9 +344,9 @@ def test_a_forearm_back_in_view_after_the_board_is_read_while_it_rests(
     angles = np.array([e.angles[0] for e in don.run(clip.frames)])
     error = np.abs(np.degrees(wrap_angle(angles[88:101] - clip.truth.angles[88:101, 0])))
     if search_when_lost:
-        assert error.max() < 5.0
+        assert error.max() < 2.7
     else:
-        assert error.max() > 10.0
+        assert error.max() > 10.0  # measured 13.3
 
 
 def test_a_forearm_swinging_past_the_boards_edge_is_read_through_the_merge() -> None:
@@ -349,7 +354,8 @@ def test_a_forearm_swinging_past_the_boards_edge_is_read_through_the_merge() -> 
     turns 4 degrees a frame toward the board's sliding edge, and their moving pixels
     merge into one region along no ray from the elbow. DON held 33.5 degrees through it
     (frames 122-128, up to 24 degrees off, then hidden for 30 frames); it now erases the
-    edge where it should be and reads the forearm (measured within 2.3 degrees)."""
+    edge where it should be and reads the forearm (measured within 1.25 degrees; the
+    bound is about twice that, issue 40)."""
     from imimic_gym.clips import load_clip
     from imimic_gym.clips.scenarios import get_scenario
 
@@ -359,7 +365,7 @@ def test_a_forearm_swinging_past_the_boards_edge_is_read_through_the_merge() -> 
               joint_range=spec.joint_ranges[0])
     angles = np.array([e.angles[0] for e in don.run(clip.frames)])
     error = np.abs(np.degrees(wrap_angle(angles[122:129] - clip.truth.angles[122:129, 0])))
-    assert error.max() < 4.0
+    assert error.max() < 2.5
 
 
 def test_a_link_found_again_far_away_is_no_velocity() -> None:
@@ -373,8 +379,9 @@ def test_a_link_found_again_far_away_is_no_velocity() -> None:
     frames += [bar_frame(a) for a in later]
     estimates = DON(fps=FPS, pivot=tuple(PIVOT)).run(frames)
     back = estimates[-3]
-    assert abs(math.degrees(wrap_angle(back.angles[0] - later[-3]))) < 3.0
-    assert abs(math.degrees(back.omega[0])) < 200.0
+    # measured 0.44 deg and 86 deg/s (the bar's own 90) (issue 40: about 2x)
+    assert abs(math.degrees(wrap_angle(back.angles[0] - later[-3]))) < 0.9
+    assert abs(math.degrees(back.omega[0])) < 180.0
 
 
 def test_a_link_turning_too_slowly_for_consecutive_differences_is_still_followed() -> None:
@@ -394,7 +401,7 @@ def test_a_link_turning_too_slowly_for_consecutive_differences_is_still_followed
     estimates = DON(fps=FPS, pivot=tuple(PIVOT)).run(frames)
     errors = [abs(math.degrees(e.angles[0] - a)) for e, a in zip(estimates, angles,
                                                                   strict=True)]
-    assert max(errors[40:]) < 3.0
+    assert max(errors[40:]) < 0.65  # measured 0.32 deg (issue 40: about 2x)
 
 
 @pytest.mark.parametrize("wall", [(200, 200, 210), (120, 120, 120)])
@@ -415,7 +422,7 @@ def test_a_thin_link_of_low_contrast_is_followed_without_a_gaussian(wall: tuple)
     estimates = DON(fps=FPS, pivot=tuple(PIVOT)).run(frames)
     errors = [abs(math.degrees(wrap_angle(e.angles[0] - a)))
               for e, a in zip(estimates[20:], angles[20:], strict=True)]
-    assert max(errors) < 1.0
+    assert max(errors) < 0.8  # measured 0.38 and 0.37 deg (issue 40: about 2x)
 
 
 def test_one_frame_without_the_link_does_not_read_as_occlusion() -> None:
@@ -448,7 +455,8 @@ def test_the_prediction_layer_carries_a_hidden_link_on() -> None:
     assert all(on[i].predicted for i in hidden) and not any(off[i].predicted for i in hidden)
     assert np.mean([error(on, i) for i in hidden]) < np.mean([error(off, i) for i in hidden]) - 3
     assert all(np.isfinite(e.angles).all() and np.isfinite(e.omega).all() for e in on)
-    assert error(on, 55) < 3.0 and not on[55].predicted
+    # measured 0.11 deg (issue 40: about 2x, and a floor of 0.05)
+    assert error(on, 55) < 0.25 and not on[55].predicted
 
 
 def test_the_prediction_layer_does_not_roll_on_from_a_reading_of_half_the_link() -> None:
@@ -471,7 +479,7 @@ def test_the_prediction_layer_does_not_roll_on_from_a_reading_of_half_the_link()
 
 @pytest.mark.parametrize("fps", [0.0, -30.0, float("nan"), float("inf")])
 def test_a_frame_rate_that_is_not_positive_and_finite_is_refused(fps) -> None:
-    from imimic_gym.estimators.don_links import LinkedDON
+    from imimic_gym.estimators.don.linked import LinkedDON
 
     message = "fps must be a positive, finite number of frames per second"
     with pytest.raises(ValueError, match=message):

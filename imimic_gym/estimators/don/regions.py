@@ -14,7 +14,7 @@ from collections.abc import Sequence
 import cv2
 import numpy as np
 
-from imimic_gym.estimators.compiled import region_moments
+from imimic_gym.estimators.don.compiled import region_moments
 
 __all__ = ["component_lines", "edge_along", "erase_edges", "follow", "lies_along",
            "reach_square"]

@@ -9,8 +9,8 @@ import cv2
 import numpy as np
 import pytest
 
-from imimic_gym.estimators.pose_don import CROP, PoseSeededDON
-from imimic_gym.estimators.pose_model import KEYPOINTS, BodyKeypoints
+from imimic_gym.estimators.pose.model import KEYPOINTS, BodyKeypoints
+from imimic_gym.estimators.pose.seeded_don import CROP, PoseSeededDON
 
 FRAMES = 90
 UPPER, FOREARM = 50.0, 45.0  # px
@@ -104,13 +104,15 @@ def test_don_carries_the_forearm_between_pose_frames_and_is_reseeded_when_the_el
     # neither DON's reading nor a turn rate yet: it holds).
     from_don = sorted(set(range(3, FRAMES)) - set(model.calls))
     error = np.abs(angles - truth)
-    assert error[3:].max() < 8.0 and error[from_don].mean() < 3.0
+    # measured 5.7 deg at most, 1.0 on average (issue 40: the mean's bound about 2x)
+    assert error[3:].max() < 8.0 and error[from_don].mean() < 2.0
     assert all(e.trust > 0.4 and e.keypoints.shape == (2, 2) for e in estimates)
     # Keypoints drawn in input pixels, at the elbow, and the forearm drawn at the angle
-    # given (the upper arm hangs straight down).
+    # given (the upper arm hangs straight down). The elbow measured exactly on the pose
+    # model's (0 px): 0.01 px leaves the crop's scaling its float round-off (issue 40).
     for t in from_don:
         elbow, wrist = estimates[t].keypoints
-        assert np.hypot(*(elbow - elbow_at(t))) < 2.0
+        assert np.hypot(*(elbow - elbow_at(t))) < 0.01
         drawn = math.degrees(math.atan2(-(wrist[1] - elbow[1]), wrist[0] - elbow[0])) + 90.0
         assert drawn == pytest.approx(angles[t], abs=0.01)
     assert CROP == 120
@@ -133,7 +135,8 @@ def test_dons_turns_carry_the_forearm_closer_than_the_pose_frames_rate(
     with_don = carried_error()
     monkeypatch.setattr(PoseSeededDON, "_don_direction", lambda self, don: None)
     rolled_on = carried_error()
-    assert with_don < 3.0 < rolled_on and with_don < 0.5 * rolled_on
+    # measured 0.89 deg with DON, 15.9 rolled on (issue 40: about 2x)
+    assert with_don < 1.8 and 3.0 < rolled_on and with_don < 0.12 * rolled_on
 
 
 def test_a_jump_between_pose_frames_is_taken_as_a_place_not_rolled_on_as_a_speed(
@@ -147,8 +150,10 @@ def test_a_jump_between_pose_frames_is_taken_as_a_place_not_rolled_on_as_a_speed
     model = ScriptedModel(elbow_of=drifting)
     _, estimates, _ = run(model, pose_every=5)
     angles = np.degrees([e.angles[0] for e in estimates])
-    assert angles[40:48] == pytest.approx(30.0, abs=0.5)
-    assert angles[50:60] == pytest.approx(90.0, abs=0.5)
+    # The pose frames' readings are taken and held as they are: measured 3e-14 deg off,
+    # so the bound is float round-off's (issue 40).
+    assert angles[40:48] == pytest.approx(30.0, abs=1e-9)
+    assert angles[50:60] == pytest.approx(90.0, abs=1e-9)
 
 
 def test_a_fast_steady_turn_is_followed_after_two_like_jumps(
@@ -162,7 +167,8 @@ def test_a_fast_steady_turn_is_followed_after_two_like_jumps(
     model = ScriptedModel(elbow_of=drifting)
     _, estimates, _ = run(model, pose_every=5)
     angles = np.degrees([e.angles[0] for e in estimates])
-    assert angles[10:30] == pytest.approx(20.0 + 5.0 * np.arange(10, 30), abs=0.5)
+    # measured 9e-14 deg off: the ramp is followed exactly, up to float round-off (issue 40)
+    assert angles[10:30] == pytest.approx(20.0 + 5.0 * np.arange(10, 30), abs=1e-9)
 
 
 def test_the_other_arm_is_read_afresh_and_dons_crop_moves_to_it() -> None:
@@ -220,13 +226,14 @@ def test_a_swaying_elbow_moves_dons_pivot_without_a_new_seed() -> None:
     assert all(np.array_equal(origin, origins[1]) for origin in origins[1:])  # one crop
     from_don = sorted(set(range(1, FRAMES)) - set(model.calls))
     late = [t for t in from_don if t > 60]
-    assert late and all(np.hypot(*(estimates[t].keypoints[0] - drifting(t))) < 1.5
+    # measured 0.2 px at most (issue 40: about 2x)
+    assert late and all(np.hypot(*(estimates[t].keypoints[0] - drifting(t))) < 0.4
                         for t in late)
     # DON's own pivot (crop px) follows the elbow the pose model sees on each pose frame.
     pivot = estimator.don.known_pivot * estimator.side / CROP + estimator.origin
     assert pivot == pytest.approx(drifting(max(model.calls)))
     error = np.degrees([abs(estimates[t].angles[0] - flexion(t)) for t in from_don])
-    assert error.mean() < 4.0
+    assert error.mean() < 2.0  # measured 1.0 deg (issue 40: about 2x)
 
 
 def test_nobody_in_view_holds_and_the_arm_is_found_again() -> None:
@@ -237,7 +244,8 @@ def test_nobody_in_view_holds_and_the_arm_is_found_again() -> None:
     assert len({float(e.angles[0]) for e in held}) == 1
     assert all(t in model.calls for t in range(31, 40))  # the model asked every frame
     assert estimates[45].trust > 0.4
-    assert abs(math.degrees(estimates[45].angles[0] - flexion(45))) < 8.0
+    # measured 0.33 deg (issue 40: about 2x)
+    assert abs(math.degrees(estimates[45].angles[0] - flexion(45))) < 0.7
 
 
 def test_pose_every_is_checked() -> None:

@@ -6,8 +6,8 @@ import cv2
 import numpy as np
 import pytest
 
-from imimic_gym.estimators.appearance import LinkAppearance
-from imimic_gym.estimators.don import DON
+from imimic_gym.estimators.don.appearance import LinkAppearance
+from imimic_gym.estimators.don.one_link import DON
 from imimic_gym.kinematics import wrap_angle
 
 H, W = 120, 160  # the working resolution: the layer takes working frames
@@ -129,7 +129,7 @@ def test_the_bar_is_read_to_a_fraction_of_a_degree_from_a_rough_prior(
         layer.last = None  # each a view of its own: no track to jump from (see below)
         angle = layer.update(bar(wall(), truth), PIVOT, RADIUS,
                              truth + math.radians(prior_error_deg), True, 1.0)
-        assert error_deg(angle, truth) < 0.6
+        assert error_deg(angle, truth) < 0.4  # measured 0.19 deg at most (issue 40: ~2x)
 
 
 def test_a_pivot_two_pixels_off_does_not_tilt_the_reading() -> None:
@@ -141,7 +141,7 @@ def test_a_pivot_two_pixels_off_does_not_tilt_the_reading() -> None:
         truth = math.radians(truth_deg)
         layer.last = None  # each a view of its own, as above
         angle = layer.update(bar(wall(), truth), wrong, RADIUS, truth, True, 1.0)
-        assert error_deg(angle, truth) < 1.0
+        assert error_deg(angle, truth) < 0.3  # measured 0.13 deg at most (issue 40: ~2x)
 
 
 def test_where_don_vouches_for_a_direction_nothing_farther_off_is_read() -> None:
@@ -156,7 +156,7 @@ def test_where_don_vouches_for_a_direction_nothing_farther_off_is_read() -> None
         layer.last = truth  # as if the last frame had read the link
         readings[vouched] = layer.update(bar(wall(), other), PIVOT, RADIUS, truth, vouched,
                                          float(vouched))
-    assert error_deg(readings[False], other) < 1.0
+    assert error_deg(readings[False], other) < 0.4  # measured 0.19 deg (issue 40: ~2x)
     assert readings[True] is None
 
 
@@ -172,16 +172,17 @@ def test_a_vouched_jump_away_from_the_layers_track_is_searched_along_the_track()
         layer = LinkAppearance()
         for _ in range(2):  # learn the colour, then read the bar
             layer.update(bar(wall(), start), PIVOT, RADIUS, start, True, 1.0)
-        assert error_deg(layer.last, start) < 1.0
+        assert error_deg(layer.last, start) < 0.2  # measured 0.08 deg (issue 40: ~2x)
         return layer
 
+    # measured 0.04 and 0.07 deg below (issue 40: about 2x, and a floor of 0.05)
     layer = layer_that_read_the_bar()
     assert error_deg(layer.update(bar(wall(), moved), PIVOT, RADIUS, jump, True, 1.0),
-                     moved) < 1.0
+                     moved) < 0.15
     near = math.radians(40)  # 10 degrees from the track: DON's reading is searched about
     layer = layer_that_read_the_bar()
     assert error_deg(layer.update(bar(wall(), near), PIVOT, RADIUS, near, True, 1.0),
-                     near) < 1.0
+                     near) < 0.2
     layer = layer_that_read_the_bar()
     assert layer.update(bar(wall(), jump), PIVOT, RADIUS, jump, True, 1.0) is None
 
@@ -197,12 +198,12 @@ def test_without_don_the_layer_follows_its_own_track_and_lets_go_of_a_lost_link(
     for step in range(1, 15):
         truth = stale + math.radians(3.0 * step)
         angle = layer.update(bar(wall(), truth), PIVOT, RADIUS, stale, False, 0.0)
-        assert error_deg(angle, truth) < 1.0
+        assert error_deg(angle, truth) < 0.5  # measured 0.25 deg at most (issue 40: ~2x)
     assert layer.update(wall(), PIVOT, RADIUS, stale, False, 0.0) is None
     back = math.radians(80)
     assert layer.update(bar(wall(), back), PIVOT, RADIUS, stale, False, 0.0) is None
     assert error_deg(layer.update(bar(wall(), back), PIVOT, RADIUS, back, True, 1.0),
-                     back) < 1.0
+                     back) < 0.35  # measured 0.17 deg (issue 40: about 2x)
 
 
 def test_once_don_has_lost_the_link_the_layer_searches_everywhere_it_can_point() -> None:
@@ -219,7 +220,7 @@ def test_once_don_has_lost_the_link_the_layer_searches_everywhere_it_can_point()
         readings[lost] = layer.update(bar(wall(), back), PIVOT, RADIUS, stale, False, 0.0,
                                       directions, lost=lost)
     assert readings[False] is None
-    assert error_deg(readings[True], back) < 1.0
+    assert error_deg(readings[True], back) < 0.3  # measured 0.14 deg (issue 40: ~2x)
     narrow = (math.radians(40), math.radians(50))  # -10 to 90 degrees: 110 is out
     layer = LinkAppearance()
     layer.update(bar(wall(), stale), PIVOT, RADIUS, stale, True, 1.0, narrow)
@@ -249,8 +250,8 @@ def test_don_with_the_layer_follows_a_slow_link_its_motion_layers_lose() -> None
     """A skin-coloured bar on the checkerboard, at DON's input size, swings fast (DON
     finds the pivot), then creeps at 0.3 degrees a frame: too little for consecutive
     differences, so the paper's layers hold a stale angle until the slow-link difference
-    catches up (off by up to 2.6 degrees), while the appearance layer keeps reading it
-    (within 0.6)."""
+    catches up (measured off by up to 3.0 degrees), while the appearance layer keeps
+    reading it (measured within 0.31; the bound is about twice that, issue 40)."""
     pivot = PIVOT * 2
     angles = [math.radians(a) for a in
               [*np.arange(30, 120, 4.0), *np.arange(120, 30, -4.0), *np.arange(30, 45, 0.3)]]
@@ -266,7 +267,7 @@ def test_don_with_the_layer_follows_a_slow_link_its_motion_layers_lose() -> None
                         joint_range=(0.0, math.pi)).run(frames)
         errors[appearance] = max(error_deg(e.angles[0], a)
                                  for e, a in zip(estimates[slow], angles[slow], strict=True))
-    assert errors[True] < 1.0 and errors[False] > 2.0
+    assert errors[True] < 0.6 and errors[False] > 2.0
 
 
 def test_a_colour_learned_from_something_else_is_learned_again() -> None:
@@ -297,14 +298,15 @@ def test_vouched_readings_ten_degrees_off_relearn_the_colour_only_by_default(
     if disagree is None:
         assert any(r is None for r, _ in later)
     else:
-        assert max(error_deg(r, math.radians(a)) for r, a in later) < 1.0
+        # measured 0.30 deg at most (issue 40: about 2x)
+        assert max(error_deg(r, math.radians(a)) for r, a in later) < 0.6
 
 
 def test_every_setting_of_the_layer_comes_from_its_config() -> None:
     """DON and LinkedDON hand their `colour` settings to the layer; a field given to the
     layer replaces the config's."""
-    from imimic_gym.estimators.config import AppearanceConfig, don_preset, override
-    from imimic_gym.estimators.don import DON
+    from imimic_gym.estimators.don.config import AppearanceConfig, don_preset, override
+    from imimic_gym.estimators.don.one_link import DON
 
     don = DON(config=override(don_preset("rgb"), {"colour.sigma": 20.0, "colour.near": 3}))
     assert don.appearance is not None

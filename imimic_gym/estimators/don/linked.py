@@ -29,12 +29,12 @@ import cv2
 import mujoco
 import numpy as np
 
-from imimic_gym.estimators.appearance import LinkAppearance
-from imimic_gym.estimators.chain_fit import Chain, blob_ends, corner, direction_of, facing_point
-from imimic_gym.estimators.config import LinkedDONConfig, override
+from imimic_gym.estimators.don.appearance import LinkAppearance
+from imimic_gym.estimators.don.chain_fit import Chain, blob_ends, corner, direction_of, facing_point
+from imimic_gym.estimators.don.config import LinkedDONConfig, override
+from imimic_gym.estimators.don.motion_mask import MotionMask
 from imimic_gym.estimators.joint_range import pointing_range, within_range
 from imimic_gym.estimators.motion import PathEstimator, TorqueModel
-from imimic_gym.estimators.motion_mask import MotionMask
 from imimic_gym.estimators.types import Estimate
 from imimic_gym.kinematics import wrap_angle
 

@@ -11,13 +11,13 @@ import pytest
 
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
-from imimic_gym.estimators.pose import ELBOW_RANGE, ArmChooser, PoseEstimator
-from imimic_gym.estimators.pose_model import (
+from imimic_gym.estimators.pose.model import (
     KEYPOINTS,
     BodyKeypoints,
     PoseModel,
     PoseModelMissingError,
 )
+from imimic_gym.estimators.pose.planar import ELBOW_RANGE, ArmChooser, PoseEstimator
 from imimic_gym.kinematics import keypoints_to_angles
 from imimic_gym.metrics import angle_rmse_deg
 
@@ -47,7 +47,8 @@ def test_the_model_finds_the_rendered_persons_arm(person_clip) -> None:
         error = keypoints_to_angles(points, 1) - keypoints_to_angles(truth[:3], 1)
         errors.append(math.degrees(error[0]))
     assert len(errors) >= 0.7 * len(person_clip)
-    # The forearm's angle from the upper arm, frame by frame from photos (no tracking).
+    # The forearm's angle from the upper arm, frame by frame from photos (no tracking):
+    # measured 9.9 deg RMSE, 23.6 at most on clip seed 5 (bounds left at 1.2x, 1.3x).
     assert np.sqrt(np.mean(np.square(errors))) < 12.0 and np.abs(errors).max() < 30.0
 
 
@@ -101,7 +102,8 @@ def test_the_estimator_follows_the_rendered_forearm(person_clip) -> None:
     estimates = PoseEstimator(n_links=1, fps=person_clip.fps).run(person_clip.frames)
     angles = np.array([e.angles for e in estimates])
     assert all(e.trust > 0.5 for e in estimates[5:])
-    assert angle_rmse_deg(angles[5:], person_clip.truth.angles[5:]) < 12.0
+    # measured 3.95 deg on clip seed 5 (issue 40: about 2x)
+    assert angle_rmse_deg(angles[5:], person_clip.truth.angles[5:]) < 8.0
     assert all(np.isfinite(e.omega).all() and e.keypoints.shape == (2, 2) for e in estimates)
 
 
@@ -237,13 +239,13 @@ def test_without_mediapipe_the_error_gives_the_install_that_works_from_a_clone(
     by name; the README says the same."""
     from pathlib import Path
 
-    from imimic_gym.estimators.pose_model import PoseModelMissingError
+    from imimic_gym.estimators.pose.model import PoseModelMissingError
 
     monkeypatch.setitem(sys.modules, "mediapipe.python.solutions", None)
     with pytest.raises(PoseModelMissingError) as missing:
         PoseModel()
     assert ("pip install '.[pose]' in a clone of imimic_gym, then pip install --no-deps "
             "mediapipe==0.10.14") in str(missing.value)
-    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    readme = (Path(__file__).resolve().parents[3] / "README.md").read_text()
     assert "imimic_gym[" not in readme.replace("`imimic_gym[pose]` by name is not", "")
     assert 'pip install ".[pose]"' in readme and 'pip install ".[ray]"' in readme

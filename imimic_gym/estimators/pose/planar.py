@@ -25,7 +25,7 @@ import numpy as np
 
 from imimic_gym.estimators.joint_range import within_range
 from imimic_gym.estimators.motion import PathEstimator, TorqueModel
-from imimic_gym.estimators.pose_model import BodyKeypoints, PoseModel
+from imimic_gym.estimators.pose.model import BodyKeypoints, PoseModel
 from imimic_gym.estimators.types import Estimate
 from imimic_gym.kinematics import keypoints_to_angles, wrap_angle
 

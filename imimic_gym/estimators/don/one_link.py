@@ -32,14 +32,14 @@ import cv2
 import mujoco
 import numpy as np
 
-from imimic_gym.estimators.appearance import LinkAppearance
-from imimic_gym.estimators.config import DONConfig, override
+from imimic_gym.estimators.don.appearance import LinkAppearance
+from imimic_gym.estimators.don.config import DONConfig, override
+from imimic_gym.estimators.don.link_tracker import LinkTracker
+from imimic_gym.estimators.don.motion_mask import MotionMask
+from imimic_gym.estimators.don.regions import component_lines
 from imimic_gym.estimators.frames import FrameShapeError
 from imimic_gym.estimators.joint_range import within_range
-from imimic_gym.estimators.link_tracker import LinkTracker
 from imimic_gym.estimators.motion import PathEstimator, TorqueModel
-from imimic_gym.estimators.motion_mask import MotionMask
-from imimic_gym.estimators.regions import component_lines
 from imimic_gym.estimators.types import Estimate
 from imimic_gym.kinematics import wrap_angle
 

@@ -13,7 +13,7 @@ from collections import deque
 
 import numpy as np
 
-from imimic_gym.estimators.compiled import pivot_solve
+from imimic_gym.estimators.don.compiled import pivot_solve
 
 __all__ = ["PivotEstimator"]
 

@@ -8,8 +8,8 @@ import pytest
 
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
-from imimic_gym.estimators.pose3d import Pose3DEstimator
-from imimic_gym.estimators.pose_model import KEYPOINTS, BodyKeypoints
+from imimic_gym.estimators.pose.model import KEYPOINTS, BodyKeypoints
+from imimic_gym.estimators.pose.spatial import Pose3DEstimator
 from imimic_gym.estimators.registry import (
     UnsupportedClipError,
     build_estimator,
@@ -19,11 +19,11 @@ from imimic_gym.estimators.registry import (
 from imimic_gym.estimators.types import EstimatorContext
 from imimic_gym.evaluation import cannot_score
 from imimic_gym.spatial import ArmPose, Intrinsics
-from tests.estimators.test_pose import ScriptedModel
+from tests.estimators.pose.test_planar import ScriptedModel
 
 CAMERA = Intrinsics.from_fovy(45, 640, 480)
 FRAME = np.zeros((480, 640, 3), np.uint8)
-EXACT = {"keypoint_noise": 0.0, "smoothing": None, "refine": False}
+EXACT = {"keypoint_noise": 0.0, "smoothing": None, "refine": False, "share_filter": None}
 
 
 @pytest.fixture(scope="module")

@@ -14,8 +14,8 @@ import math
 
 import numpy as np
 
-from imimic_gym.estimators.config import TrackerConfig
-from imimic_gym.estimators.regions import edge_along, lies_along
+from imimic_gym.estimators.don.config import TrackerConfig
+from imimic_gym.estimators.don.regions import edge_along, lies_along
 
 __all__ = ["EdgeMemory"]
 

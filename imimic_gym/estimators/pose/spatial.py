@@ -4,8 +4,9 @@ that moves (or the one asked for), and the arm becomes an `ArmPose` in the camer
 by one of three routes (``source``):
 
 - ``"lift"``: the bone-length lift of the 2-D keypoints (`spatial.lift.ArmLifter`: the
-  person's lengths refined over the clip, the model's depth order for toward/away,
-  One Euro smoothing);
+  person's lengths refined over the clip, each bone's toward/away extent from a Bayes
+  filter on its 2-D length and the model's depth (`spatial.lift.ShareFilter`), One Euro
+  smoothing);
 - ``"depth"``: the keypoints back-projected through the frame's metric depth image (an
   RGB-D camera), each arm bone kept to the person's length as the depth measures it
   (the median over the clip so far of the frames that measured all three bones within
@@ -29,8 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from imimic_gym.estimators.pose import ArmChooser
-from imimic_gym.estimators.pose_model import KEYPOINTS, BodyKeypoints, PoseModel
+from imimic_gym.estimators.pose.model import KEYPOINTS, BodyKeypoints, PoseModel
+from imimic_gym.estimators.pose.planar import ArmChooser
 from imimic_gym.spatial.arm_pose import ArmPose
 from imimic_gym.spatial.camera import Intrinsics
 from imimic_gym.spatial.lift import (
@@ -71,7 +72,7 @@ class Pose3DEstimator:
         source: "lift", "depth" or "world" (module docstring).
         model: a `PoseModel` to use (None: a new one, in video mode).
         lift: keyword arguments for the lift's `spatial.lift.ArmLifter` (its smoothing,
-            sign threshold, length quantile) over its defaults.
+            share filter, length quantile) over its defaults.
     """
 
     def __init__(self, fps: float = 30.0, intrinsics: Intrinsics | None = None,

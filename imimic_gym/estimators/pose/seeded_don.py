@@ -45,10 +45,15 @@ import cv2
 import mujoco
 import numpy as np
 
-from imimic_gym.estimators.don import DON
+from imimic_gym.estimators.don.one_link import DON
 from imimic_gym.estimators.motion import PathEstimator, TorqueModel
-from imimic_gym.estimators.pose import ELBOW_RANGE, ArmReading, PoseEstimator, continue_within
-from imimic_gym.estimators.pose_model import PoseModel
+from imimic_gym.estimators.pose.model import PoseModel
+from imimic_gym.estimators.pose.planar import (
+    ELBOW_RANGE,
+    ArmReading,
+    PoseEstimator,
+    continue_within,
+)
 from imimic_gym.estimators.types import Estimate
 from imimic_gym.kinematics import wrap_angle
 

@@ -9,7 +9,7 @@ import torch
 
 from imimic_gym.clips.scenarios import ClipSpec
 from imimic_gym.clips.synthetic import render_clip
-from imimic_gym.estimators.cnn import (
+from imimic_gym.estimators.cnn.estimator import (
     CheckpointError,
     CNNEstimator,
     CNNRefiner,
@@ -21,7 +21,7 @@ from imimic_gym.estimators.cnn import (
     predict_keypoints,
     save_model,
 )
-from imimic_gym.estimators.cnn_report import format_pcp_tables, pcp_report
+from imimic_gym.estimators.cnn.report import format_pcp_tables, pcp_report
 from imimic_gym.metrics import angle_rmse_deg
 
 SMALL = NetConfig(input_hw=(12, 16), conv_channels=(2, 4), dense_units=8, refiner_units=8)
@@ -87,8 +87,9 @@ def test_checkpoint_round_trip(tmp_path: Path) -> None:
     save_model(model, tmp_path / "m.pt", {"links": 1})
     back = load_model(tmp_path / "m.pt")
     image = np.random.default_rng(0).integers(0, 256, (24, 32, 3), dtype=np.uint8)
+    # The weights are stored as float16: measured 0.0029 px apart (issue 40: about 2x).
     np.testing.assert_allclose(predict_keypoints(back, [image]),
-                               predict_keypoints(model, [image]), rtol=1e-2, atol=1e-2)
+                               predict_keypoints(model, [image]), rtol=0, atol=0.006)
 
 
 def test_corrupt_and_wrong_checkpoints_name_the_file(tmp_path: Path) -> None:
@@ -137,7 +138,7 @@ def test_shipped_checkpoints_load_and_see_the_arm() -> None:
     clip = render_clip(spec, progress=False)
     estimates = CNNEstimator(n_links=1).run(clip.frames)
     angles = np.array([e.angles for e in estimates])
-    assert angle_rmse_deg(angles, clip.truth.angles) < 15.0
+    assert angle_rmse_deg(angles, clip.truth.angles) < 11.5  # measured 5.8 deg (issue 40: ~2x)
     assert all(np.isfinite(e.omega).all() and e.trust == 1.0 for e in estimates)
     assert estimates[-1].keypoints.shape == (2, 2)
 
