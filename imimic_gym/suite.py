@@ -71,7 +71,8 @@ def _scripted(name: str) -> Callable[[gym.Env], Any]:
 # Controller name -> (the env's control mode, factory taking the wrapped env). The oracle
 # reads the truth one frame ahead from the env itself and ignores the estimate. The
 # scripted ones keep the start pose until the estimator's first reading (`EstimateTarget`).
-# The learned tracker's control mode is its checkpoint's (`RunConfig.control`).
+# The learned tracker's control mode is that of its env's shipped checkpoint
+# (`RunConfig.control`).
 CONTROLLERS: dict[str, tuple[str, Callable[[gym.Env], Any]]] = {
     "oracle": ("position", _oracle),
     "position": ("position", _scripted("position")),
@@ -103,9 +104,9 @@ class RunConfig:
     @property
     def control(self) -> str:
         if self.controller == "learned":
-            from imimic_gym.controllers.learned import checkpoint_control
+            from imimic_gym.controllers.learned import DEFAULT_CHECKPOINTS, checkpoint_control
 
-            return checkpoint_control()
+            return checkpoint_control(DEFAULT_CHECKPOINTS[self.env_id])
         return CONTROLLERS[self.controller][0]
 
     @property

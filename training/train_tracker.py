@@ -1,6 +1,9 @@
-"""Train the learned tracker: a stable-baselines3 policy (SAC, or PPO) that corrects the
-velocity controller (``--control position``: the position controller), on ImitateVideo-v0
-behind the DON wrapper (``keep_frame=False``).
+"""Train the learned tracker: a stable-baselines3 policy (SAC, or PPO) that corrects a
+scripted controller. On ImitateVideo-v0 (the default ``--env``, the planar arm) it corrects
+the velocity controller (``--control position``: the position controller) behind DON; on
+ImitateVideo3D-v0 (``--env ImitateVideo3D-v0``, the SO-101's six joints) the position
+controller behind the oracle estimator (``--estimator``: any registered one that follows
+the scenarios). The estimator's observation drops the frame (``keep_frame=False``).
 
 One env per training scenario, vectorised; clip seeds below 1000 only (``--train-seeds``
 for training, ``--val-seeds`` for the periodic evaluation; the evaluation suite's
@@ -18,6 +21,8 @@ trials (``--address``: an existing cluster).
     python training/train_tracker.py --out imimic_gym/data/checkpoints/tracker.pt  # shipped
     python training/train_tracker.py --total-timesteps 200          # smoke run, in runs/
     python training/train_tracker.py --search seed=0,1,2 --backend ray  # pick one of three
+    python training/train_tracker.py --env ImitateVideo3D-v0 \
+        --out imimic_gym/data/checkpoints/tracker3d.pt     # the shipped 3-D tracker
 """
 
 from __future__ import annotations
@@ -45,25 +50,47 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 from torch.utils.tensorboard import SummaryWriter
 from tqdm import tqdm
 
-import imimic_gym  # noqa: F401  (registers ImitateVideo-v0)
+import imimic_gym  # noqa: F401  (registers ImitateVideo-v0 and ImitateVideo3D-v0)
 from imimic_gym.atomic import atomic_write, write_bytes, write_json
 from imimic_gym.checkpoints import file_sha256
 from imimic_gym.cli.common import at_least, finite, positive, unit_interval
 from imimic_gym.clips.scenarios import get_scenario, scenario_names
 from imimic_gym.controllers.learned import FEATURES_VERSION, ResidualTracking
-from imimic_gym.wrappers import DONObservation
+from imimic_gym.estimators.registry import ESTIMATORS
+from imimic_gym.evaluation import cannot_score
+from imimic_gym.wrappers import RegistryObservation
 
 ROOT = Path(__file__).resolve().parents[1]
+
+# Per env: the training scenarios, the control mode (the scripted controller under the
+# residual) and the estimator that an option left empty takes.
+ENV_DEFAULTS: dict[str, dict[str, Any]] = {
+    "ImitateVideo-v0": {
+        "scenarios": ("exp2-servo", "exp3-forearm-none", "exp3-forearm-low",
+                      "exp3-forearm-high"),
+        "control": "velocity", "estimator": "don"},
+    "ImitateVideo3D-v0": {
+        "scenarios": ("spatial-reach", "spatial-cup", "spatial-raise", "spatial-curl",
+                      "spatial-wave", "spatial"),
+        "control": "position", "estimator": "oracle"},
+}
 
 
 @dataclass
 class Args:
     algorithm: str = "sac"
     """the SB3 algorithm: sac or ppo"""
-    scenarios: tuple[str, ...] = ("exp2-servo", "exp3-forearm-none", "exp3-forearm-low",
-                                  "exp3-forearm-high")
+    env: str = "ImitateVideo-v0"
+    """the env the tracker drives: ImitateVideo-v0 (the planar arm) or ImitateVideo3D-v0
+    (the SO-101 copying an arm in space; its scenarios are the spatial ones)"""
+    scenarios: tuple[str, ...] = ()
     """training scenarios, one vectorised env each, all with the same number of moving
-    links (the defaults have one: DON follows one link)"""
+    links; default: exp2-servo exp3-forearm-none exp3-forearm-low exp3-forearm-high on
+    ImitateVideo-v0 (one link: DON follows one link), spatial-reach spatial-cup
+    spatial-raise spatial-curl spatial-wave spatial on ImitateVideo3D-v0"""
+    estimator: str = ""
+    """the registered estimator whose obs['estimate'] the policy reads; default: don on
+    ImitateVideo-v0, oracle (the retargeted truth) on ImitateVideo3D-v0"""
     train_seeds: int = 48
     """training clips per scenario: clip seeds 0 .. train_seeds-1"""
     val_seeds: tuple[int, ...] = (900, 901)
@@ -75,9 +102,10 @@ class Args:
     frames: int | None = None
     """clip length in frames, short for smoke runs; default: the scenario's (150 frames,
     5 s)"""
-    control: str = "velocity"
+    control: str = ""
     """the robot's actuation, and so the scripted controller under the residual:
-    position or velocity"""
+    position or velocity; default: velocity on ImitateVideo-v0, position on
+    ImitateVideo3D-v0 (the SO-101's servos take target angles only)"""
     residual_scale: float = 1.0
     """the policy's action, times this, is added to the scripted controller's (both
     normalised to [-1, 1] of the actuator's range)"""
@@ -132,6 +160,8 @@ class Args:
 # refused in one line before any work.
 CHECKS: dict[str, dict[str, Any]] = {
     "algorithm": {"choices": ("sac", "ppo")},
+    "env": {"choices": tuple(ENV_DEFAULTS)},
+    "estimator": {"choices": tuple(ESTIMATORS)},
     "scenarios": {"choices": scenario_names(), "metavar": "SCENARIO"},
     "train_seeds": {"type": at_least(1)},
     "val_seeds": {"type": at_least(0)},
@@ -180,6 +210,23 @@ def parse_args(argv: list[str] | None = None) -> Args:
     if args.total_timesteps < 1:
         parser.error(f"--total-timesteps must be at least 1, got {args.total_timesteps}: an "
                      "untrained policy is no policy; nothing written")
+    for name, default in ENV_DEFAULTS[args.env].items():
+        if not getattr(args, name):
+            setattr(args, name, default)
+    spatial = args.env == "ImitateVideo3D-v0"
+    wrong = [name for name in args.scenarios if get_scenario(name).spatial != spatial]
+    if wrong:
+        parser.error("--scenarios: " + (
+            f"planar scenarios on ImitateVideo3D-v0, which takes spatial ones: {wrong}"
+            if spatial else f"spatial scenarios on ImitateVideo-v0: {wrong}; train them "
+                            "with --env ImitateVideo3D-v0"))
+    if spatial and args.control != "position":
+        parser.error(f"--control: the SO-101's servos take target angles: ImitateVideo3D-v0 "
+                     f"takes position, got {args.control}")
+    for name in args.scenarios:
+        why = cannot_score(name, args.estimator, controlled=True)
+        if why:
+            parser.error(f"--estimator: {why}")
     links = {name: get_scenario(name).n_links for name in args.scenarios}
     if len(set(links.values())) > 1:
         parser.error("--scenarios: one policy drives one arm, but " + ", ".join(
@@ -206,12 +253,13 @@ def _field_docs() -> dict[str, str]:
 
 def make_env(scenario: str, seeds: tuple[int, ...], args: Args,
              reward_scale: float = 1.0) -> gym.Env:
-    """ImitateVideo-v0 (``args.control``) -> DON (no frame) -> residual features/actions."""
+    """``args.env`` (``args.control``) -> ``args.estimator`` (no frame) -> residual
+    features/actions."""
     kwargs = {"n_frames": args.frames} if args.frames else {}
-    env = gym.make("ImitateVideo-v0", scenario=scenario, control=args.control,
-                   clip_seeds=seeds, **kwargs)
-    return ResidualTracking(DONObservation(env, keep_frame=False), args.residual_scale,
-                            reward_scale, args.history,
+    env = gym.make(args.env, scenario=scenario, control=args.control, clip_seeds=seeds,
+                   **kwargs)
+    return ResidualTracking(RegistryObservation(env, args.estimator, keep_frame=False),
+                            args.residual_scale, reward_scale, args.history,
                             args.rate_history)
 
 
@@ -383,8 +431,9 @@ def train(args: Args) -> None:
         "reward_scales": scales,
         "history_frames": args.history,
         "rate_history_frames": args.rate_history,
+        "env": args.env,
         "control": args.control,
-        "estimator": "don",
+        "estimator": args.estimator,
         "scenarios": list(args.scenarios),
         "train_seeds": list(train_seeds),
         "val_seeds": list(args.val_seeds),
@@ -423,7 +472,7 @@ def search_grid(args: Args) -> list[dict[str, object]]:
             sys.exit(2)
         default = kinds[key]
         # A tuple option (scenarios, val_seeds, net_arch) takes one value a trial.
-        kind = type(default[0]) if isinstance(default, tuple) else (
+        kind = (type(default[0]) if default else str) if isinstance(default, tuple) else (
             type(default) if default is not None else int)
         try:
             axes.append([(key, (kind(v),) if isinstance(default, tuple) else kind(v))

@@ -313,11 +313,13 @@ def _suite_configs(args: argparse.Namespace) -> list:
         return paper_configs(seeds, args.frames)
     configs, skipped = [], []
     for scenario in args.scenario:
-        n_links = get_scenario(scenario).n_links
+        spec = get_scenario(scenario)
+        # The shipped planar policy drives one link; the 3-D one, the SO-101's six joints.
+        learned_cannot = spec.n_links != 1 and not spec.spatial
         for controller in args.controller:
             for estimator in args.estimator:
                 if (cannot_score(scenario, estimator, controlled=True)
-                        or (n_links != 1 and controller == "learned")):
+                        or (learned_cannot and controller == "learned")):
                     skipped.append(f"{scenario}/{estimator}/{controller}")
                     continue
                 configs.append(RunConfig(scenario, estimator, controller, seeds, args.frames,
@@ -326,7 +328,7 @@ def _suite_configs(args: argparse.Namespace) -> list:
                     break  # the oracle controller ignores the estimate: one run is enough
     if skipped:
         why = ("estimators that cannot follow the scenario's clips, for their links or "
-               "demonstrator, and the learned policy beyond one link")
+               "demonstrator, and the learned policy on a planar arm beyond one link")
         if not configs:
             raise CommandError(f"imimic eval: nothing to run: {', '.join(skipped)} "
                                f"cannot run ({why})")
@@ -426,7 +428,8 @@ def add_eval(sub: argparse._SubParsersAction, names: list[str]) -> None:
                                "angles, the upper bound), position (the paper's servo), "
                                "velocity, torque (each keeps the start pose until the "
                                "estimator's first reading), learned "
-                               "(the shipped policy)")
+                               "(the shipped policy: the planar arm's, or on spatial "
+                               "scenarios the SO-101's)")
     evaluate.add_argument("--paper", action="store_true",
                           help="the paper's experiments 1-4 (DON + position and learned "
                                "controllers) as one table against the paper's statements")

@@ -11,8 +11,9 @@ guess is the middle of the joint range while the robot starts at the true pose),
 the estimate lags, and when a jumpy estimate is better not followed.
 
 ``python training/train_tracker.py`` trains it; `LearnedController` loads the shipped
-policy (``checkpoints/tracker.pt`` and its ``tracker.json``) as a controller with the
-scripted controllers' interface.
+policy for its env (``checkpoints/tracker.pt`` and its ``tracker.json`` on
+ImitateVideo-v0, ``checkpoints/tracker3d.pt`` and ``tracker3d.json`` on ImitateVideo3D-v0,
+the SO-101's six joints) as a controller with the scripted controllers' interface.
 """
 
 from __future__ import annotations
@@ -28,13 +29,17 @@ from gymnasium import spaces
 from imimic_gym.checkpoints import SHIPPED_CHECKPOINTS, CheckpointError, verify_checkpoint
 from imimic_gym.controllers.scripted import SCRIPTED_CONTROLLERS
 from imimic_gym.envs.imitate_video import imitate_env
+from imimic_gym.envs.imitate_video_3d import ImitateVideo3DEnv
 from imimic_gym.estimators.types import estimate_fields
 from imimic_gym.kinematics import wrap_angle
 
-__all__ = ["DEFAULT_CHECKPOINT", "LearnedController", "ResidualTracking", "TrackerFeatures",
-           "checkpoint_control", "load_policy"]
+__all__ = ["DEFAULT_CHECKPOINT", "DEFAULT_CHECKPOINTS", "LearnedController", "ResidualTracking",
+           "TrackerFeatures", "checkpoint_control", "env_id", "load_policy"]
 
 DEFAULT_CHECKPOINT = SHIPPED_CHECKPOINTS / "tracker.pt"
+# The shipped policy for each env id (a policy drives the arm it was trained on).
+DEFAULT_CHECKPOINTS = {"ImitateVideo-v0": DEFAULT_CHECKPOINT,
+                       "ImitateVideo3D-v0": SHIPPED_CHECKPOINTS / "tracker3d.pt"}
 FEATURES_VERSION = 2
 KNOWN_FEATURES_VERSIONS = (1, 2)
 TIME_HORIZON_S = 2.0  # the time feature saturates here: only the start needs a clock
@@ -199,6 +204,13 @@ class ResidualTracking(gym.Wrapper, gym.utils.RecordConstructorArgs):
         return features, self.reward_scale * float(reward), terminated, truncated, info
 
 
+def env_id(env: gym.Env) -> str:
+    """The id of the ImitateVideo env under ``env``'s wrappers: ``"ImitateVideo3D-v0"`` for
+    the SO-101 copying an arm in space, else ``"ImitateVideo-v0"``."""
+    inner = imitate_env(env)
+    return "ImitateVideo3D-v0" if isinstance(inner, ImitateVideo3DEnv) else "ImitateVideo-v0"
+
+
 def checkpoint_control(checkpoint: str | Path = DEFAULT_CHECKPOINT) -> str:
     """The control mode a checkpoint drives (its metadata's ``control``); "position" when
     there is no checkpoint yet (`LearnedController` then says what is missing)."""
@@ -259,10 +271,13 @@ class LearnedController:
     Args:
         env: the wrapped env (for the joint ranges, fps and the servo's action scale).
         checkpoint: the policy weights (``.pt``); its metadata is the ``.json`` beside it.
+            None: the shipped one for the env (`DEFAULT_CHECKPOINTS`). A policy trained on
+            the other env (its metadata's ``env``; none recorded: ImitateVideo-v0) is
+            refused.
     """
 
-    def __init__(self, env: gym.Env, checkpoint: str | Path = DEFAULT_CHECKPOINT) -> None:
-        checkpoint = Path(checkpoint)
+    def __init__(self, env: gym.Env, checkpoint: str | Path | None = None) -> None:
+        checkpoint = Path(checkpoint or DEFAULT_CHECKPOINTS[env_id(env)])
         meta_path = checkpoint.with_suffix(".json")
         if not checkpoint.is_file() or not meta_path.is_file():
             raise FileNotFoundError(f"learned tracker needs {checkpoint} and {meta_path}; "
@@ -274,6 +289,11 @@ class LearnedController:
             raise CheckpointError(f"tracker metadata {meta_path} is not a complete JSON "
                                   f"record of a trained tracker ({type(err).__name__}: "
                                   f"{err})") from err
+        trained_on, here = self.metadata.get("env", "ImitateVideo-v0"), env_id(env)
+        if trained_on != here:
+            raise ValueError(f"tracker checkpoint {checkpoint} was trained on {trained_on}; "
+                             f"this env is {here} (another robot: the shipped policy for it "
+                             f"is {DEFAULT_CHECKPOINTS[here].name})")
         verify_checkpoint(checkpoint, self.metadata)
         version = self.metadata.get("features_version")
         if version not in KNOWN_FEATURES_VERSIONS:

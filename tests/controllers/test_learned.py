@@ -10,12 +10,13 @@ import imimic_gym  # noqa: F401
 from imimic_gym.controllers import SCRIPTED_CONTROLLERS
 from imimic_gym.controllers.learned import (
     DEFAULT_CHECKPOINT,
+    DEFAULT_CHECKPOINTS,
     LearnedController,
     ResidualTracking,
     checkpoint_control,
 )
 from imimic_gym.rollout import run_episode
-from imimic_gym.wrappers import DONObservation
+from imimic_gym.wrappers import DONObservation, RegistryObservation
 
 
 def don_env(scenario: str = "exp2-servo", control: str = "position", **kwargs) -> gym.Env:
@@ -35,6 +36,44 @@ def test_the_shipped_policy_loads_with_its_metadata_and_tracks_the_servo() -> No
     # Clip 100 starts with DON 34 degrees off for four frames (see test_scripted).
     assert learned["rmse_deg"] < plain["rmse_deg"]
     assert learned["rmse_deg"] < 3.0  # measured 1.47 deg (plain: 1.51) (issue 40: about 2x)
+
+
+def so101_env(n_frames: int = 12) -> gym.Env:
+    """ImitateVideo3D-v0 (the SO-101) behind the oracle estimator, as the 3-D policy was
+    trained."""
+    return RegistryObservation(gym.make("ImitateVideo3D-v0", scenario="spatial-wave",
+                                        n_frames=n_frames, clip_seeds=(100,)), "oracle",
+                               keep_frame=False)
+
+
+def test_the_shipped_3d_policy_drives_the_so101_with_actions_in_its_space() -> None:
+    checkpoint = DEFAULT_CHECKPOINTS["ImitateVideo3D-v0"]
+    meta = json.loads(checkpoint.with_suffix(".json").read_text())
+    assert (meta["env"], meta["control"], meta["action_size"]) == ("ImitateVideo3D-v0",
+                                                                   "position", 6)
+    assert max(meta["train_seeds"]) < 1000 and max(meta["val_seeds"]) < 1000
+    env = so101_env()
+    controller = LearnedController(env)  # no checkpoint named: the env's shipped one
+    obs, _ = env.reset(seed=0)
+    controller.reset()
+    actions = []
+    for _ in range(10):
+        action = controller(obs)
+        actions.append(action)
+        obs, reward, *_ = env.step(action)
+        assert np.isfinite(reward)
+    actions = np.array(actions)
+    assert actions.shape == (10, 6) and np.isfinite(actions).all()
+    assert all(env.action_space.contains(a) for a in actions)
+
+
+def test_a_policy_for_the_other_robot_is_refused_by_name() -> None:
+    with pytest.raises(ValueError, match=r"tracker checkpoint .*tracker\.pt was trained on "
+                                         r"ImitateVideo-v0; this env is ImitateVideo3D-v0"):
+        LearnedController(so101_env(n_frames=4), DEFAULT_CHECKPOINT)
+    with pytest.raises(ValueError, match=r"tracker checkpoint .*tracker3d\.pt was trained on "
+                                         r"ImitateVideo3D-v0; this env is ImitateVideo-v0"):
+        LearnedController(don_env(n_frames=4), DEFAULT_CHECKPOINTS["ImitateVideo3D-v0"])
 
 
 def test_residual_training_env_passes_both_checkers() -> None:

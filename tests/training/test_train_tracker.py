@@ -12,7 +12,7 @@ import imimic_gym  # noqa: F401
 from imimic_gym.clips.scenarios import scenario_names
 from imimic_gym.controllers.learned import LearnedController
 from imimic_gym.rollout import run_episode
-from imimic_gym.wrappers import DONObservation
+from imimic_gym.wrappers import DONObservation, RegistryObservation
 
 from . import option_helps, refused
 
@@ -56,6 +56,27 @@ def test_a_tiny_training_run_writes_a_policy_that_loads_and_tracks(tmp_path) -> 
     # 80 steps teach nothing, and the residual is bounded: it stays near the servo; measured
     # 4.3 deg on clip seed 900 (issue 40: about 2x).
     assert np.isfinite(metrics["rmse_deg"]) and metrics["rmse_deg"] < 9.0
+
+
+def test_a_tiny_3d_run_writes_a_policy_that_drives_the_so101(tmp_path) -> None:
+    out = tmp_path / "tiny3d.pt"
+    subprocess.run([sys.executable, str(SCRIPT), "--env", "ImitateVideo3D-v0", "--scenarios",
+                    "spatial-wave", "--train-seeds", "1", "--val-seeds", "900", "--frames", "12",
+                    "--total-timesteps", "48", "--learning-starts", "24", "--batch-size", "16",
+                    "--eval-every", "48", "--out", str(out), "--logdir", str(tmp_path / "runs")],
+                   check=True, timeout=300)
+    meta = json.loads(out.with_suffix(".json").read_text())
+    # The 3-D defaults: the oracle's estimate under the position controller, six joints.
+    assert (meta["env"], meta["estimator"], meta["control"]) == ("ImitateVideo3D-v0", "oracle",
+                                                                 "position")
+    assert meta["action_size"] == 6 and meta["observation_size"] == (8 + 6 + 12) * 6 + 3 + 12
+    assert set(meta["val_metrics"]) == {"spatial-wave/learned_rmse_deg",
+                                        "spatial-wave/scripted_rmse_deg"}
+    env = RegistryObservation(gym.make("ImitateVideo3D-v0", scenario="spatial-wave",
+                                       n_frames=12, clip_seeds=(900,)), "oracle",
+                              keep_frame=False)
+    metrics = run_episode(env, LearnedController(env, out), seed=0).metrics()
+    assert np.isfinite(metrics["rmse_deg"])
 
 
 def test_the_script_refuses_held_out_seeds() -> None:
@@ -169,6 +190,16 @@ def test_a_search_over_a_list_option_gives_each_trial_one_value(monkeypatch) -> 
     (["--scenarios", "exp2-servo", "nope"], "argument --scenarios: invalid choice: 'nope'"),
     (["--search", "scenarios=default,nope"], "argument --scenarios: invalid choice: 'nope'"),
     (["--scenarios", "exp2-servo", "chain-2"], "exp2-servo has 1, chain-2 has 2 moving links"),
+    (["--env", "ImitateVideo3D-v0", "--scenarios", "exp2-servo"],
+     "--scenarios: planar scenarios on ImitateVideo3D-v0, which takes spatial ones: "
+     "['exp2-servo']"),
+    (["--scenarios", "spatial-cup"],
+     "--scenarios: spatial scenarios on ImitateVideo-v0: ['spatial-cup']; train them with "
+     "--env ImitateVideo3D-v0"),
+    (["--env", "ImitateVideo3D-v0", "--control", "velocity"],
+     "--control: the SO-101's servos take target angles: ImitateVideo3D-v0 takes position"),
+    (["--env", "ImitateVideo3D-v0", "--estimator", "don"],
+     "--estimator: estimator 'don' gives planar joint angles; this clip's arm moves in 3-D"),
 ])
 def test_an_unknown_or_mismatched_scenario_is_named_before_any_work(
         tmp_path, flags: list[str], message: str) -> None:
