@@ -7,7 +7,8 @@ scenario's test-pool clips against the rendered 3-D truth: elbow-flexion RMSE, f
 upper-arm direction errors (per clip: RMSE, median and 95th percentile over its frames;
 over clips: mean with its 95% interval, and the worst clips), coverage. Part ``robot``:
 the SO-101 of ``ImitateVideo3D-v0`` driven by the position controller from `pose3d` and
-from the truth (the oracle), its joint RMSE against the retargeted truth. Part ``real``:
+from the truth (the oracle), and by the learned tracker from the truth, its joint RMSE
+against the retargeted truth. Part ``real``:
 `pose3d` and `pose-world` on the real videos of ../shared/realdata (no 3-D truth there):
 coverage, smoothness (median turn of the forearm between frames), flips (a bone's depth
 sign changing while it points well out of the image plane), the flexion's spread. Part
@@ -29,7 +30,8 @@ from imimic_gym.sweep import Cell
 SCENARIOS = ("spatial-reach", "spatial-cup", "spatial-raise", "spatial-curl", "spatial-wave",
              "spatial")
 ESTIMATORS = ("pose3d", "pose-world", "pose3d-depth")
-ROBOT_ESTIMATORS = ("pose3d", "oracle")
+# The robot part's runs: (estimator, controller).
+ROBOT_RUNS = (("pose3d", "position"), ("oracle", "position"), ("oracle", "learned"))
 KEYS = ("elbow_flexion_rmse_deg", "forearm_direction_error_deg",
         "forearm_direction_p95_deg", "upper_arm_direction_error_deg", "coverage",
         "arm_found", "elbow_2d_rmse_deg", "elbow_2d_across_rmse_deg")
@@ -55,11 +57,12 @@ def run(args: Any) -> dict[str, Any]:
                 for key in KEYS},
              "per_clip": r["rows"]} for r in results]
     if "robot" in parts:
-        cells = [Cell(s, e, "position", seed) for s in SCENARIOS for e in ROBOT_ESTIMATORS
+        cells = [Cell(s, e, c, seed) for s in SCENARIOS for e, c in ROBOT_RUNS
                  for seed in seeds]
         results = sweep("spatial.robot" + suffix, cells, args)
         data["robot"] = [{"scenario": r["scenario"], "estimator": r["estimator"],
-                          "clips": r["episodes"], "rmse_deg": spread(r["rows"], "rmse_deg"),
+                          "controller": r["controller"], "clips": r["episodes"],
+                          "rmse_deg": spread(r["rows"], "rmse_deg"),
                           "per_clip": r["rows"]} for r in results]
     if "real" in parts:
         data["real"] = real(args.quick)
@@ -191,12 +194,13 @@ mean {elbow:.1f}), **{'met' if across <= 6 else 'missed'}** with the arm across 
         out.append("""### The SO-101 copying the arm
 
 `ImitateVideo3D-v0` on the same clips: the position controller driven by `pose3d`, and by
-the truth (the oracle, the control loop's bound); joint RMSE (deg, over the six joints and
-every frame) against the truth retargeted onto the robot (`retarget.DirectionRetargeter`).
+the truth (the oracle, the control loop's bound), and the learned tracker
+(`tracker3d.pt`) driven by the truth; joint RMSE (deg, over the six joints and every
+frame) against the truth retargeted onto the robot (`retarget.DirectionRetargeter`).
 
-""" + table(["scenario", "estimator", "joint RMSE (deg)", "worst clips"],
-            [[f"`{r['scenario']}`", r["estimator"], ci(r["rmse_deg"]), worst(r["rmse_deg"])]
-             for r in robot]))
+""" + table(["scenario", "estimator", "controller", "joint RMSE (deg)", "worst clips"],
+            [[f"`{r['scenario']}`", r["estimator"], r.get("controller", "position"),
+              ci(r["rmse_deg"]), worst(r["rmse_deg"])] for r in robot]))
     real_ = data.get("real", {})
     if real_.get("rows"):
         out.append("""### Real footage (no 3-D truth)
