@@ -71,8 +71,14 @@ def draw_estimate(picture: np.ndarray, estimate: Estimate,
     text = caption or f"estimate {angles} deg  eta {estimate.trust:.2f}"
     colour = (0, 230, 255) if estimate.predicted else (255, 220, 0)
     origin, font = (round(6 * size), round(16 * size)), 0.45 * size
-    for ink, width in (((0, 0, 0), round(3 * size)), (colour, max(1, round(size)))):
-        cv2.putText(out, text, origin, cv2.FONT_HERSHEY_SIMPLEX, font, ink, width, cv2.LINE_AA)
+    width = max(1, round(size))
+    # On a dark box, not over a thicker black copy: OpenCV advances each glyph by its
+    # stroke's thickness, so a thicker copy drifts off the text along the line.
+    (w, h), below = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, font, width)
+    pad = max(1, round(2 * size))
+    cv2.rectangle(out, (origin[0] - pad, origin[1] - h - pad),
+                  (origin[0] + w + pad, origin[1] + below), (0, 0, 0), -1)
+    cv2.putText(out, text, origin, cv2.FONT_HERSHEY_SIMPLEX, font, colour, width, cv2.LINE_AA)
     return out
 
 
