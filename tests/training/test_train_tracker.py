@@ -3,6 +3,7 @@ import json
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -137,17 +138,23 @@ def test_an_out_that_cannot_be_written_is_said_before_training(tmp_path) -> None
     assert "cannot write --out" in result.stderr
 
 
+def two_trial_search(tmp_path: Path, out: Path, backend: str, **run: Any) -> dict[str, Any]:
+    """A tiny ``--search seed=0,1`` on ``backend`` writing the best policy to ``out``
+    (runs under ``tmp_path/runs``); its metadata."""
+    subprocess.run([sys.executable, str(SCRIPT), "--scenarios", "exp2-servo",
+                    "--train-seeds", "1", "--val-seeds", "900", "--frames", "20",
+                    "--total-timesteps", "60", "--learning-starts", "30", "--batch-size", "16",
+                    "--eval-every", "60", "--search", "seed=0,1", "--backend", backend,
+                    "--run-name", "search", "--logdir", str(tmp_path / "runs"),
+                    "--out", str(out)], check=True, timeout=600, **run)
+    return dict(json.loads(out.with_suffix(".json").read_text()))
+
+
 def test_a_two_trial_tune_search_writes_the_best_policy_and_it_loads(tmp_path) -> None:
     """Two Ray Tune trials (seeds 0 and 1) on a local Ray; the one with the lower
     validation RMSE is written to --out, in the format LearnedController loads."""
     out = tmp_path / "best.pt"
-    subprocess.run([sys.executable, str(SCRIPT), "--scenarios", "exp2-servo",
-                    "--train-seeds", "1", "--val-seeds", "900", "--frames", "20",
-                    "--total-timesteps", "60", "--learning-starts", "30", "--batch-size", "16",
-                    "--eval-every", "60", "--search", "seed=0,1", "--backend", "ray",
-                    "--run-name", "search", "--logdir", str(tmp_path / "runs"),
-                    "--out", str(out)], check=True, timeout=600)
-    meta = json.loads(out.with_suffix(".json").read_text())
+    meta = two_trial_search(tmp_path, out, "ray")
     trials = meta["search"]["trials"]
     assert [t["options"] for t in trials] == [{"seed": 0}, {"seed": 1}]
     assert all(np.isfinite(t["val_rmse_deg"]) for t in trials)
@@ -284,13 +291,7 @@ def test_a_two_trial_local_search_writes_the_best_policy_and_it_loads(tmp_path) 
     """``--search seed=0,1 --backend local``: the two trials run one after the other here;
     the one with the lower validation RMSE is copied to --out, bit for bit."""
     out = tmp_path / "best.pt"
-    subprocess.run([sys.executable, str(SCRIPT), "--scenarios", "exp2-servo",
-                    "--train-seeds", "1", "--val-seeds", "900", "--frames", "20",
-                    "--total-timesteps", "60", "--learning-starts", "30", "--batch-size", "16",
-                    "--eval-every", "60", "--search", "seed=0,1", "--backend", "local",
-                    "--run-name", "search", "--logdir", str(tmp_path / "runs"),
-                    "--out", str(out)], check=True, timeout=600, capture_output=True)
-    meta = json.loads(out.with_suffix(".json").read_text())
+    meta = two_trial_search(tmp_path, out, "local", capture_output=True)
     search = meta["search"]
     assert search["backend"] == "local" and search["grid"] == ["seed=0,1"]
     assert [t["options"] for t in search["trials"]] == [{"seed": 0}, {"seed": 1}]
