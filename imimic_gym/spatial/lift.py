@@ -188,6 +188,7 @@ def out_of_plane(ratio: float, noise: float) -> float:
 
 # The grid of a bone's signed share on which `ShareFilter` keeps its belief.
 SHARE_GRID = np.linspace(-1.0, 1.0, 101)
+_IN_PLANE_RATIO = np.sqrt(1.0 - SHARE_GRID ** 2)  # each share's 2-D length / length
 
 
 @dataclass(frozen=True)
@@ -258,7 +259,7 @@ def _filter_bone(start: np.ndarray, ray: np.ndarray, length: float,
     if not length > 0.0:
         return _Bone(max(middle, _DEPTH_RANGE[0]) * ray, lower_bound, missed), belief
     ratio = lower_bound / length
-    fit = np.exp(-0.5 * ((ratio - np.sqrt(1.0 - SHARE_GRID ** 2))
+    fit = np.exp(-0.5 * ((ratio - _IN_PLANE_RATIO)
                          / settings.keypoint_noise) ** 2)
     log_like = np.log((1.0 - settings.outlier) * fit + settings.outlier + 1e-300)
     if model_delta is not None:
