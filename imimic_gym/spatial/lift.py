@@ -208,11 +208,15 @@ class ShareFilter:
 
     Between readings the belief spreads by a Gaussian of ``turn_rate`` (share/s) times
     the time step, and a ``jump`` share of it spreads evenly (a turn the filter missed).
-    The bone takes the posterior mean of the share: where toward and away are equally
-    likely, the bone lies in the image plane, not at one of them at random.
+    The bone takes the posterior mean of the share times the sign's certainty,
+    ``|P(away) - P(toward)| ** certainty_power``: where toward and away are equally
+    likely, the bone lies in the image plane, not at one of them at random, and a belief
+    split between the two tilts it only as far as one side outweighs the other (so a
+    reading that tips the split does not swing the bone from one tilt to its mirror).
 
     All attributes are shares of the bone's length (``turn_rate`` per second), >= 0;
-    ``keypoint_noise`` and ``depth_noise`` > 0; ``outlier`` and ``jump`` in [0, 1).
+    ``keypoint_noise`` and ``depth_noise`` > 0; ``outlier`` and ``jump`` in [0, 1);
+    ``certainty_power`` >= 0 (0: the plain posterior mean).
     """
 
     keypoint_noise: float = 0.06
@@ -221,12 +225,13 @@ class ShareFilter:
     depth_noise: float = 1.0
     turn_rate: float = 8.0
     jump: float = 0.01
+    certainty_power: float = 1.0
 
     def __post_init__(self) -> None:
         for name in ("keypoint_noise", "depth_noise"):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
                 raise ValueError(f"ShareFilter.{name} must be > 0, got {getattr(self, name)!r}")
-        for name in ("depth_gain", "turn_rate"):
+        for name in ("depth_gain", "turn_rate", "certainty_power"):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
                 raise ValueError(f"ShareFilter.{name} must be >= 0, got "
                                  f"{getattr(self, name)!r}")
@@ -248,9 +253,10 @@ def uniform_belief() -> np.ndarray:
 def _filter_bone(start: np.ndarray, ray: np.ndarray, length: float,
                  model_delta: float | None, belief: np.ndarray, settings: ShareFilter
                  ) -> tuple[_Bone, np.ndarray]:
-    """The far end on ``ray`` at the posterior mean of the bone's share (`ShareFilter`),
-    given the ``belief`` (on `SHARE_GRID`, predicted to this frame) and this frame's
-    readings (``model_delta`` as `_solve_bone`'s), and the posterior."""
+    """The far end on ``ray`` at the bone's share (`ShareFilter`: the posterior mean
+    times the sign's certainty), given the ``belief`` (on `SHARE_GRID`, predicted to
+    this frame) and this frame's readings (``model_delta`` as `_solve_bone`'s), and the
+    posterior."""
     a = float(ray @ ray)
     root_a = math.sqrt(a)
     middle = float(ray @ start) / a  # t of the ray's point nearest the start
@@ -270,6 +276,10 @@ def _filter_bone(start: np.ndarray, ray: np.ndarray, length: float,
     total = float(posterior.sum())
     posterior = posterior / total if total > 0.0 and math.isfinite(total) else uniform_belief()
     share = float(posterior @ SHARE_GRID)
+    if settings.certainty_power > 0.0:
+        certainty = abs(float(posterior[SHARE_GRID > 0.0].sum())
+                        - float(posterior[SHARE_GRID < 0.0].sum()))
+        share *= certainty ** settings.certainty_power
     t = max(middle + share * length / root_a, _DEPTH_RANGE[0])
     return _Bone(t * ray, lower_bound, missed), posterior
 

@@ -395,9 +395,10 @@ def test_from_depth_mends_an_occluded_elbow_and_a_shoulder_on_the_wall() -> None
 
 def test_the_share_filter_reads_still_arms_from_exact_keypoints() -> None:
     """40 random arms held still for 1 s, exact keypoints and model depth: the filter's
-    forearm direction error has a median under 4 degrees (measured 3.2) and its flexion
-    RMSE is under 10 (measured 8.1: the posterior mean pulls a bone whose toward/away
-    the model's depth tells weakly a little toward the image plane)."""
+    forearm direction error has a median under 5 degrees (measured 4.2; 3.2 with the
+    plain posterior mean) and its flexion RMSE is under 12.5 (measured 10.0; 8.1): the
+    filter pulls a bone whose toward/away the model's depth tells weakly toward the
+    image plane, the more so the less sure its sign."""
     rng = np.random.default_rng(3)
     forearm, flexion = [], []
     for _ in range(40):
@@ -409,19 +410,20 @@ def test_the_share_filter_reads_still_arms_from_exact_keypoints() -> None:
         true = ArmPose("left", truth, np.ones(7), pixels)
         forearm.append(math.degrees(angle_between(pose.forearm, true.forearm)))
         flexion.append(math.degrees(pose.elbow_flexion - true.elbow_flexion))
-    assert np.median(forearm) < 4.0
-    assert math.sqrt(np.mean(np.square(flexion))) < 10.0
+    assert np.median(forearm) < 5.0
+    assert math.sqrt(np.mean(np.square(flexion))) < 12.5
 
 
 def test_the_share_filter_settles_on_a_forearm_at_the_camera() -> None:
-    """A forearm pointing at the camera (exact keypoints and depth): 16.6 degrees off in
-    the first frame (the uniform prior), under 3 from the third frame on."""
+    """A forearm pointing at the camera (exact keypoints and depth): 33 degrees off in
+    the first frame (the uniform prior: no sign yet, so in the image plane), under 3
+    from the fourth frame on (measured 2.0 there, 1.6 after)."""
     truth = arm("right", np.array([0, 1.0, 0]), unit_vector([0, 0.3, -1]))
     pixels, depth = observe(truth)
     lifter = ArmLifter(CAMERA, 30.0, smoothing=None, refine=False)
     errors = [math.degrees(angle_between(lifter("right", pixels, np.ones(7), depth).forearm,
                                          truth[2] - truth[1])) for _ in range(30)]
-    assert max(errors[2:]) < 3.0
+    assert max(errors[3:]) < 3.0
 
 
 def test_the_share_filter_beats_the_sign_rules_where_the_models_depth_is_noisy() -> None:
@@ -473,6 +475,28 @@ def test_the_share_filters_belief_spreads_by_its_turn_rate() -> None:
                                               1 / 30), uniform_belief(), rtol=1e-9)
 
 
+def test_a_split_belief_does_not_swing_the_bone_to_its_mirror() -> None:
+    """A still forearm tilted toward the camera (extent -0.8), its model depth saying
+    toward weakly for 8 frames (0.3 of the truth's), then away for two (-1.0 of it):
+    the plain posterior mean swings it through the image plane to the mirror tilt
+    (measured -0.70 -> +0.17); scaled by the sign's certainty it comes back to the
+    plane and stops there (-0.60 -> -0.03)."""
+    truth = arm("right", np.array([0, 1.0, 0]), unit_vector([0, 0.6, -0.8]))
+    pixels, depth = observe(truth)
+    extents = {}
+    for power in (0.0, 1.0):
+        lifter = ArmLifter(CAMERA, 30.0, smoothing=None, refine=False,
+                           share_filter=ShareFilter(certainty_power=power))
+        extents[power] = []
+        for i in range(10):
+            read = depth.copy()
+            read[2:4] = depth[1] + (0.3 if i < 8 else -1.0) * (depth[2] - depth[1])
+            forearm = lifter("right", pixels, np.ones(7), read).forearm
+            extents[power].append(float(forearm[2]))
+    assert extents[0.0][7] < -0.6 and extents[0.0][-1] > 0.1, extents[0.0]
+    assert extents[1.0][7] < -0.5 and max(extents[1.0]) < 0.02, extents[1.0]
+
+
 def test_the_share_filter_refuses_bad_settings_and_is_never_nan() -> None:
     with pytest.raises(ValueError, match=r"ShareFilter.depth_noise must be > 0"):
         ShareFilter(depth_noise=0.0)
@@ -480,6 +504,8 @@ def test_the_share_filter_refuses_bad_settings_and_is_never_nan() -> None:
         ShareFilter(turn_rate=-1.0)
     with pytest.raises(ValueError, match=r"ShareFilter.outlier must be in \[0, 1\)"):
         ShareFilter(outlier=1.0)
+    with pytest.raises(ValueError, match=r"ShareFilter.certainty_power must be >= 0"):
+        ShareFilter(certainty_power=-0.5)
     lifter = ArmLifter(CAMERA, 30.0)
     one_pixel = np.full((7, 2), 320.0)
     for pixels, depth in ((one_pixel, np.zeros(7)), (one_pixel, np.full(7, 1e9)),
