@@ -260,16 +260,20 @@ def write_behind(path: Path, frames: Iterator[np.ndarray], fps: float,
     """`write_video` on a thread of its own, fed through a queue of ``depth`` frames, so
     that encoding a frame overlaps estimating the next (the encoder and the estimator
     then share the two cores). The file is finalised whatever ends the run (Ctrl-C
-    included), with every frame ``frames`` yielded, even one whose hand-over Ctrl-C
-    interrupted; an error of the writer's is raised here."""
+    included), with every frame ``frames`` yielded exactly once, even one whose hand-over
+    Ctrl-C interrupted; an error of the writer's is raised here."""
     done = object()
     pending: queue.Queue = queue.Queue(maxsize=depth)
     failed: list[BaseException] = []
     finished = threading.Event()  # the writer has taken the end marker
 
     def feed() -> Iterator[np.ndarray]:
-        while (frame := pending.get()) is not done:
-            yield frame
+        written = 0  # frames are numbered, so one handed over twice is written once
+        while (item := pending.get()) is not done:
+            number, frame = item
+            if number == written:
+                written += 1
+                yield frame
         finished.set()
 
     def write() -> None:
@@ -282,18 +286,19 @@ def write_behind(path: Path, frames: Iterator[np.ndarray], fps: float,
 
     writer = threading.Thread(target=write, name="mimic.mp4 writer", daemon=True)
     writer.start()
-    made = handed = 0
+    made = 0
     frame = None
     try:
         for frame in frames:
             made += 1
-            pending.put(frame)
-            handed += 1
+            pending.put((made - 1, frame))
             if failed:
                 break
     finally:
-        if handed < made and not failed:  # Ctrl-C while waiting for room in the queue
-            pending.put(frame)
+        # Ctrl-C may land while a frame waits for room in the queue or just after it
+        # went in: handing the last frame over again is safe either way.
+        if made and not failed:
+            pending.put((made - 1, frame))
         pending.put(done)
         writer.join()
     if failed:
