@@ -1,6 +1,8 @@
 """On-disk cache of rendered clips: a second use of the same `ClipSpec` costs no rendering.
 
-One uncompressed ``.npz`` per spec, named by the spec's content hash, in
+One uncompressed ``.npz`` per spec, named by the spec's content hash and the renderer's
+(`renderer_fingerprint`: two checkouts or installs that draw a clip differently never
+read each other's), in
 ``$IMIMIC_CACHE_DIR`` (default ``$XDG_CACHE_HOME/imimic_gym/clips``, i.e.
 ``~/.cache/imimic_gym/clips``). Files are written to a temporary name and renamed, so a
 reader never sees half a file, and parallel workers rendering the same clip do not clash.
@@ -19,6 +21,9 @@ between the check and the read is rendered again like a damaged one.
 from __future__ import annotations
 
 import contextlib
+import functools
+import hashlib
+import importlib.util
 import json
 import logging
 import math
@@ -36,7 +41,7 @@ from imimic_gym.clips.types import Clip, ClipTruth, depth_from_mm, depth_to_mm
 
 __all__ = ["CacheSettingError", "CacheUsage", "cache_dir", "cache_limit_bytes", "cache_path",
            "cache_usage", "check_warmed", "clear_cache", "load_clip", "pose_labels_dir",
-           "prune_cache", "warm_clip"]
+           "prune_cache", "renderer_fingerprint", "warm_clip"]
 
 FORMAT_VERSION = 2  # 2: depth stored as whole millimetres (uint16)
 DEFAULT_MAX_GB = 20.0
@@ -55,8 +60,30 @@ def pose_labels_dir() -> Path:
     return cache_dir() / "pose-labels"
 
 
+# The modules whose code decides a rendered clip's pixels and truth.
+RENDERER_MODULES = ("imimic_gym.clips.synthetic", "imimic_gym.clips.demonstrator",
+                    "imimic_gym.clips.gestures", "imimic_gym.clips.motion",
+                    "imimic_gym.clips.scenarios", "imimic_gym.clips.types",
+                    "imimic_gym.kinematics", "imimic_gym.render", "imimic_gym.robots.planar",
+                    "imimic_gym.spatial.camera")
+
+
+@functools.cache
+def renderer_fingerprint() -> str:
+    """8 hex digits of a hash of `RENDERER_MODULES`' source and MuJoCo's version: what
+    draws a clip, beside the `ClipSpec` that says what to draw."""
+    import mujoco
+
+    digest = hashlib.sha256(mujoco.__version__.encode())
+    for name in RENDERER_MODULES:
+        found = importlib.util.find_spec(name)
+        assert found is not None and found.origin is not None, name
+        digest.update(Path(found.origin).read_bytes())
+    return digest.hexdigest()[:8]
+
+
 def cache_path(spec: ClipSpec) -> Path:
-    return cache_dir() / f"{spec.key()}.npz"
+    return cache_dir() / f"{spec.key()}-{renderer_fingerprint()}.npz"
 
 
 class CacheSettingError(ValueError):

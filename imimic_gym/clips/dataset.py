@@ -28,7 +28,7 @@ from tqdm.auto import tqdm
 from imimic_gym.atomic import write_bytes
 from imimic_gym.checkpoints import SHIPPED_ANNOTATIONS
 from imimic_gym.clips.annotations import ArmAnnotation, image_path
-from imimic_gym.clips.cache import cache_dir
+from imimic_gym.clips.cache import cache_dir, renderer_fingerprint
 from imimic_gym.clips.demonstrator import camera_pose, workspace
 from imimic_gym.clips.scenarios import SKIN_TONES, Appearance, Background, ClipSpec
 from imimic_gym.clips.synthetic import render_clip
@@ -125,9 +125,11 @@ def _digest(image: np.ndarray) -> str:
 
 
 def rendered_image_path(render: dict) -> Path:
-    """Cache file of a rendered image: ``<clip cache>/dataset_images/<spec key>_f<k>.png``."""
+    """Cache file of a rendered image:
+    ``<clip cache>/dataset_images/<spec key>-<renderer_fingerprint>_f<k>.png``."""
     spec = ClipSpec(**render["spec"])
-    return cache_dir() / "dataset_images" / f"{spec.key()}_f{render['frame_index']:03d}.png"
+    return (cache_dir() / "dataset_images"
+            / f"{spec.key()}-{renderer_fingerprint()}_f{render['frame_index']:03d}.png")
 
 
 def _store(path: Path, rgb: np.ndarray) -> None:

@@ -138,3 +138,32 @@ def test_an_async_vector_env_with_an_empty_cache_does_not_hang(tmp_path) -> None
     assert done.returncode == 0, done.stderr[-2000:]
     assert "reset (2, 240, 320, 3)" in done.stdout
     assert len(list((tmp_path / "empty_cache").glob("*"))) >= 1  # rendered into the cache
+
+
+def test_a_clip_is_filed_under_its_spec_and_its_renderer() -> None:
+    """The file's name carries the renderer's fingerprint (8 hex digits), so a checkout
+    that draws clips differently files them under other names."""
+    name = cache.cache_path(SPEC).name
+    assert name == f"{SPEC.key()}-{cache.renderer_fingerprint()}.npz"
+    assert len(cache.renderer_fingerprint()) == 8
+    int(cache.renderer_fingerprint(), 16)
+
+
+def test_the_renderer_fingerprint_reads_every_module_that_draws_a_clip() -> None:
+    """Every module of ours that rendering a clip imports (in a fresh interpreter) is in
+    `RENDERER_MODULES`, but for those that cannot change a clip's pixels or truth."""
+    import subprocess
+    import sys
+
+    listing = subprocess.run(
+        [sys.executable, "-c", "import sys, imimic_gym.clips.synthetic; "
+         "print(' '.join(m for m in sys.modules if m.startswith('imimic_gym')))"],
+        capture_output=True, text=True, timeout=120, check=True).stdout.split()
+    packages = {m for m in listing if (sys.modules.get(m) is not None
+                                       and hasattr(sys.modules[m], "__path__"))}
+    not_drawing = {"imimic_gym._gl", "imimic_gym._quiet_start", "imimic_gym.atomic",
+                   "imimic_gym.clips.cache", "imimic_gym.clips.video",
+                   "imimic_gym.clips.video_load", "imimic_gym.robots.so101",
+                   "imimic_gym.robots.spec", "imimic_gym.spatial.arm_pose"}
+    assert set(listing) - packages - not_drawing <= set(cache.RENDERER_MODULES)
+    assert "imimic_gym.clips.synthetic" in listing
