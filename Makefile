@@ -8,6 +8,9 @@ BIN     := $(VENV)/bin
 # The pose model's package, installed without its declared dependencies (pyproject's
 # `pose` extra lists the ones it needs; docs/decisions/pose-model.md says why).
 MEDIAPIPE := mediapipe==0.10.14
+# Where torch comes from, besides pip's own indexes: PyTorch's CPU-only index when it answers
+# (tools/torch_index.py; PyPI's Linux build is CUDA's, several GB). `make TORCH_FROM=` skips it.
+TORCH_FROM ?= $$($(BIN)/python tools/torch_index.py)
 OUT     ?= demo_out
 export MUJOCO_GL ?= egl
 
@@ -24,7 +27,7 @@ python:
 $(VENV)/.installed: pyproject.toml Makefile
 	python=$$($(SHELL) tools/pick_python.sh '$(PYTHON)') && "$$python" -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet torch==2.13.0
+	$(BIN)/python -m pip install --quiet torch==2.13.0 $(TORCH_FROM)
 	$(BIN)/python -m pip install --quiet -e ".[dev,pose,ray,ik]"
 	$(BIN)/python -m pip install --quiet --no-deps $(MEDIAPIPE)
 	touch $@
@@ -44,7 +47,7 @@ wheel-check: setup
 	rm -rf $(WHEEL) && mkdir -p $(WHEEL)
 	$(BIN)/python -m pip wheel --quiet --no-deps -w $(WHEEL) .
 	$(BIN)/python -m venv $(WHEEL)/venv
-	$(WHEEL)/venv/bin/python -m pip install --quiet torch==2.13.0
+	$(WHEEL)/venv/bin/python -m pip install --quiet torch==2.13.0 $(TORCH_FROM)
 	$(WHEEL)/venv/bin/python -m pip install --quiet $(WHEEL)/imimic_gym-*.whl
 	cd $(WHEEL) && venv/bin/imimic demo --estimator cnn --scenario default --frames 30 \
 		--out demo > demo.log && venv/bin/imimic eval --controller learned --episodes 1 \
