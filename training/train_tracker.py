@@ -517,7 +517,7 @@ def trial_argv(args: Args, overrides: dict[str, object], folder: Path) -> list[s
     argv = []
     for f in fields(Args):
         value = overrides.get(f.name, getattr(args, f.name))
-        if f.name in SEARCH_OWN or value is None:
+        if f.name in SEARCH_OWN or value is None or value == ():  # (): the default
             continue
         flag = "--" + f.name.replace("_", "-")
         argv += [flag, *map(str, value)] if isinstance(value, tuple) else [flag, str(value)]
