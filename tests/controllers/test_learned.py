@@ -50,7 +50,7 @@ def test_the_shipped_3d_policy_drives_the_so101_with_actions_in_its_space() -> N
     checkpoint = DEFAULT_CHECKPOINTS["ImitateVideo3D-v0"]
     meta = json.loads(checkpoint.with_suffix(".json").read_text())
     assert (meta["env"], meta["control"], meta["action_size"]) == ("ImitateVideo3D-v0",
-                                                                   "position", 6)
+                                                                   "position", 4)
     assert max(meta["train_seeds"]) < 1000 and max(meta["val_seeds"]) < 1000
     env = so101_env()
     controller = LearnedController(env)  # no checkpoint named: the env's shipped one
@@ -126,6 +126,14 @@ def test_wrist_roll_and_gripper_follow_the_scripted_controller_exactly(tmp_path)
     # The four pointing joints are the policy's (shoulder_lift sits at its limit on this
     # clip, where the residual is clipped away).
     assert np.abs(learned[:, :4] - scripted[:, :4]).max() > 0.01
+
+
+def test_the_shipped_3d_policy_leaves_wrist_roll_and_gripper_to_the_scripted_one() -> None:
+    env = so101_env()
+    controller = LearnedController(env)
+    assert controller.metadata["residual_joints"] == SO101_POINTING_JOINTS
+    learned, scripted = learned_beside_scripted(env, controller, 11)
+    np.testing.assert_array_equal(learned[:, 4:], scripted[:, 4:])
 
 
 def test_a_3d_policy_without_residual_joints_keeps_its_residual_on_all_six(tmp_path) -> None:
