@@ -1,9 +1,10 @@
 """Train the learned tracker: a stable-baselines3 policy (SAC, or PPO) that corrects a
 scripted controller. On ImitateVideo-v0 (the default ``--env``, the planar arm) it corrects
 the velocity controller (``--control position``: the position controller) behind DON; on
-ImitateVideo3D-v0 (``--env ImitateVideo3D-v0``, the SO-101's six joints) the position
-controller behind the oracle estimator (``--estimator``: any registered one that follows
-the scenarios). The estimator's observation drops the frame (``keep_frame=False``).
+ImitateVideo3D-v0 (``--env ImitateVideo3D-v0``, the SO-101) the position controller
+behind the oracle estimator (``--estimator``: any registered one that follows the
+scenarios), its residual on the four joints that point the arm (``--residual-joints``).
+The estimator's observation drops the frame (``keep_frame=False``).
 
 One env per training scenario, vectorised; clip seeds below 1000 only (``--train-seeds``
 for training, ``--val-seeds`` for the periodic evaluation; the evaluation suite's
@@ -58,21 +59,27 @@ from imimic_gym.clips.scenarios import get_scenario, scenario_names
 from imimic_gym.controllers.learned import FEATURES_VERSION, ResidualTracking
 from imimic_gym.estimators.registry import ESTIMATORS
 from imimic_gym.evaluation import cannot_score
+from imimic_gym.robots.planar import ArmSpec
+from imimic_gym.robots.so101 import SO101Spec
 from imimic_gym.wrappers import RegistryObservation
 
 ROOT = Path(__file__).resolve().parents[1]
 
 # Per env: the training scenarios, the control mode (the scripted controller under the
-# residual) and the estimator that an option left empty takes.
+# residual), the estimator and the joints the residual acts on (empty: every joint) that an
+# option left empty takes. On the SO-101 the reward reads the upper arm's, forearm's and
+# hand's directions, which wrist_roll and the gripper do not change: a residual there is
+# unrewarded drift (docs/decisions/learned-tracker.md).
 ENV_DEFAULTS: dict[str, dict[str, Any]] = {
     "ImitateVideo-v0": {
         "scenarios": ("exp2-servo", "exp3-forearm-none", "exp3-forearm-low",
                       "exp3-forearm-high"),
-        "control": "velocity", "estimator": "don"},
+        "control": "velocity", "estimator": "don", "residual_joints": ()},
     "ImitateVideo3D-v0": {
         "scenarios": ("spatial-reach", "spatial-cup", "spatial-raise", "spatial-curl",
                       "spatial-wave", "spatial"),
-        "control": "position", "estimator": "oracle"},
+        "control": "position", "estimator": "oracle",
+        "residual_joints": ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex")},
 }
 
 
@@ -109,6 +116,10 @@ class Args:
     residual_scale: float = 1.0
     """the policy's action, times this, is added to the scripted controller's (both
     normalised to [-1, 1] of the actuator's range)"""
+    residual_joints: tuple[str, ...] = ()
+    """the joints the residual acts on, by name (the others follow the scripted controller
+    exactly); default: every joint on ImitateVideo-v0, shoulder_pan shoulder_lift
+    elbow_flex wrist_flex on ImitateVideo3D-v0"""
     reward_balance: float = 1.0
     """each scenario's reward is divided by the scripted controller's mean squared error
     there (rad^2) to this power: 1 weighs scenarios by relative improvement, 0 by raw
@@ -231,10 +242,24 @@ def parse_args(argv: list[str] | None = None) -> Args:
     if len(set(links.values())) > 1:
         parser.error("--scenarios: one policy drives one arm, but " + ", ".join(
             f"{name} has {n}" for name, n in links.items()) + " moving links")
+    names = robot_joint_names(args.env, next(iter(links.values())))
+    unknown = [name for name in args.residual_joints if name not in names]
+    if unknown or len(set(args.residual_joints)) != len(args.residual_joints):
+        parser.error(f"--residual-joints: distinct joints of the {args.env} arm {names}, got "
+                     f"{list(args.residual_joints)}")
     if any(s >= 1000 for s in args.val_seeds) or args.train_seeds > min(args.val_seeds):
         parser.error("training and validation clip seeds must stay below 1000 (held out) and "
                      "the training seeds below the validation ones")
     return args
+
+
+def robot_joint_names(env: str, n_links: int) -> tuple[str, ...]:
+    """The joint names of the arm ``env`` builds for scenarios with ``n_links`` moving
+    links, in its action's order (the SO-101's; the planar arm's q1, q2, ...)."""
+    if env == "ImitateVideo3D-v0":
+        return SO101Spec().joint_names
+    return ArmSpec(link_lengths=(1.0,) * n_links, link_masses=(1.0,) * n_links,
+                   joint_ranges=((-1.0, 1.0),) * n_links).joint_names
 
 
 def _field_docs() -> dict[str, str]:
@@ -260,7 +285,7 @@ def make_env(scenario: str, seeds: tuple[int, ...], args: Args,
                    **kwargs)
     return ResidualTracking(RegistryObservation(env, args.estimator, keep_frame=False),
                             args.residual_scale, reward_scale, args.history,
-                            args.rate_history)
+                            args.rate_history, args.residual_joints or None)
 
 
 def reward_scales(args: Args, seeds: tuple[int, ...]) -> dict[str, float]:
@@ -428,6 +453,8 @@ def train(args: Args) -> None:
         "action_size": int(venv.action_space.shape[0]),
         "net_arch": list(args.net_arch),
         "residual_scale": args.residual_scale,
+        "residual_joints": list(args.residual_joints or robot_joint_names(
+            args.env, get_scenario(args.scenarios[0]).n_links)),
         "reward_scales": scales,
         "history_frames": args.history,
         "rate_history_frames": args.rate_history,
@@ -490,7 +517,7 @@ def trial_argv(args: Args, overrides: dict[str, object], folder: Path) -> list[s
     argv = []
     for f in fields(Args):
         value = overrides.get(f.name, getattr(args, f.name))
-        if f.name in SEARCH_OWN or value is None:
+        if f.name in SEARCH_OWN or value is None or value == ():  # (): the default
             continue
         flag = "--" + f.name.replace("_", "-")
         argv += [flag, *map(str, value)] if isinstance(value, tuple) else [flag, str(value)]

@@ -13,7 +13,9 @@ the estimate lags, and when a jumpy estimate is better not followed.
 ``python training/train_tracker.py`` trains it; `LearnedController` loads the shipped
 policy for its env (``checkpoints/tracker.pt`` and its ``tracker.json`` on
 ImitateVideo-v0, ``checkpoints/tracker3d.pt`` and ``tracker3d.json`` on ImitateVideo3D-v0,
-the SO-101's six joints) as a controller with the scripted controllers' interface.
+the SO-101) as a controller with the scripted controllers' interface. A policy's residual
+acts on the joints its metadata names (``residual_joints``; none recorded: every joint);
+the others get the scripted controller's action unchanged.
 """
 
 from __future__ import annotations
@@ -34,7 +36,8 @@ from imimic_gym.estimators.types import estimate_fields
 from imimic_gym.kinematics import wrap_angle
 
 __all__ = ["DEFAULT_CHECKPOINT", "DEFAULT_CHECKPOINTS", "LearnedController", "ResidualTracking",
-           "TrackerFeatures", "checkpoint_control", "env_id", "load_policy"]
+           "TrackerFeatures", "checkpoint_control", "env_id", "load_policy",
+           "residual_joint_indices"]
 
 DEFAULT_CHECKPOINT = SHIPPED_CHECKPOINTS / "tracker.pt"
 # The shipped policy for each env id (a policy drives the arm it was trained on).
@@ -142,12 +145,28 @@ class TrackerFeatures:
         return np.clip(vector, -5.0, 5.0).astype(np.float32)
 
 
+def residual_joint_indices(env: gym.Env, joints: tuple[str, ...] | None) -> np.ndarray:
+    """(k,) int: where the named joints sit in ``env``'s action (the arm's joint order);
+    ``joints`` None: every joint. Raises ValueError naming a joint the arm lacks, a repeat,
+    or an empty list."""
+    names = tuple(imitate_env(env).arm.joint_names)
+    if joints is None:
+        return np.arange(len(names))
+    unknown = [name for name in joints if name not in names]
+    if unknown or not joints or len(set(joints)) != len(joints):
+        raise ValueError(f"residual joints must be distinct joints of this arm {names}, got "
+                         f"{list(joints)}" + (f" (unknown: {unknown})" if unknown else ""))
+    return np.array([names.index(name) for name in joints])
+
+
 class _Residual:
     """The scripted controller's action (for the env's control mode) plus ``scale`` times
-    the policy's action."""
+    the policy's action on the ``joints`` it acts on (None: every joint); the other joints
+    get the scripted controller's action unchanged (bit for bit)."""
 
     def __init__(self, env: gym.Env, scale: float, history: int = 0, rate_history: int = 0,
-                 version: int = FEATURES_VERSION) -> None:
+                 version: int = FEATURES_VERSION,
+                 joints: tuple[str, ...] | None = None) -> None:
         control = imitate_env(env).control
         if control not in ("position", "velocity"):
             raise ValueError("the learned tracker corrects the position or velocity "
@@ -155,40 +174,49 @@ class _Residual:
         self.base = SCRIPTED_CONTROLLERS[control](env)
         self.features, self.scale = TrackerFeatures(env, history, rate_history,
                                                       version), scale
+        self.joints = residual_joint_indices(env, joints)
 
     def reset(self) -> None:
         self.base.reset()
         self.features.reset()
 
     def action(self, obs: dict[str, Any], residual: np.ndarray) -> np.ndarray:
-        base = self.base(obs).astype(np.float64)
-        return np.clip(base + self.scale * np.asarray(residual), -1.0, 1.0).astype(np.float32)
+        action = np.asarray(self.base(obs), dtype=np.float32).copy()
+        corrected = action[self.joints].astype(np.float64) + self.scale * np.asarray(residual)
+        action[self.joints] = np.clip(corrected, -1.0, 1.0)
+        return action
 
 
 class ResidualTracking(gym.Wrapper, gym.utils.RecordConstructorArgs):
     """Training view of an estimator-wrapped ImitateVideo env (``control="position"`` or
-    ``"velocity"``): observations are `TrackerFeatures`, actions in [-1, 1] are residuals
-    added (times ``residual_scale``) to the scripted controller's normalised action for
-    that control mode (which holds the start pose until the estimator's first reading).
+    ``"velocity"``): observations are `TrackerFeatures`, actions (k,) in [-1, 1] are
+    residuals added (times ``residual_scale``) to the scripted controller's normalised
+    action for that control mode (which holds the start pose until the estimator's first
+    reading) on the k ``residual_joints`` (the arm's joint names, in the action's order;
+    None: every joint); the other joints get the scripted controller's action unchanged.
     The reward is the env's
     times ``reward_scale`` (its truth stays in the reward and in ``info``, never in
     observations).
     """
 
     def __init__(self, env: gym.Env, residual_scale: float = 0.5, reward_scale: float = 1.0,
-                 history: int = 0, rate_history: int = 0) -> None:
+                 history: int = 0, rate_history: int = 0,
+                 residual_joints: tuple[str, ...] | None = None) -> None:
         gym.utils.RecordConstructorArgs.__init__(self, residual_scale=residual_scale,
                                                  reward_scale=reward_scale,
-                                                 history=history, rate_history=rate_history)
+                                                 history=history, rate_history=rate_history,
+                                                 residual_joints=residual_joints)
         gym.Wrapper.__init__(self, env)
         if not isinstance(env.observation_space, spaces.Dict) or (
                 "estimate" not in env.observation_space.spaces):
             raise TypeError("ResidualTracking needs an estimator wrapper's obs['estimate'] "
                             f"(e.g. DONObservation), got {env.observation_space}")
-        self.residual = _Residual(env, residual_scale, history, rate_history)
+        self.residual = _Residual(env, residual_scale, history, rate_history,
+                                  joints=residual_joints)
         self.reward_scale = reward_scale
         self.observation_space = self.residual.features.space
-        self.action_space = spaces.Box(-1.0, 1.0, shape=env.action_space.shape, dtype=np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, shape=self.residual.joints.shape,
+                                       dtype=np.float32)
         self._obs: dict[str, Any] | None = None
 
     def reset(self, **kwargs: Any) -> tuple[np.ndarray, dict[str, Any]]:
@@ -273,7 +301,9 @@ class LearnedController:
         checkpoint: the policy weights (``.pt``); its metadata is the ``.json`` beside it.
             None: the shipped one for the env (`DEFAULT_CHECKPOINTS`). A policy trained on
             the other env (its metadata's ``env``; none recorded: ImitateVideo-v0) is
-            refused.
+            refused. Its residual acts on the joints its metadata's ``residual_joints``
+            names (none recorded, as in the checkpoints from before it: every joint, the
+            meaning they were trained with); the others follow the scripted controller.
     """
 
     def __init__(self, env: gym.Env, checkpoint: str | Path | None = None) -> None:
@@ -302,12 +332,21 @@ class LearnedController:
         if imitate_env(env).control != control:
             raise ValueError(f"LearnedController drives control={control!r} actuation; this "
                              f"env has control={imitate_env(env).control!r}")
-        self.residual = _Residual(env, float(self.metadata["residual_scale"]),
-                                  int(self.metadata.get("history_frames", 0)),
-                                  int(self.metadata.get("rate_history_frames", 0)), version)
+        joints = self.metadata.get("residual_joints")
+        try:
+            self.residual = _Residual(env, float(self.metadata["residual_scale"]),
+                                      int(self.metadata.get("history_frames", 0)),
+                                      int(self.metadata.get("rate_history_frames", 0)), version,
+                                      None if joints is None else tuple(joints))
+        except ValueError as err:
+            raise ValueError(f"{meta_path}: {err}") from err
         if self.metadata["observation_size"] != self.residual.features.size:
             raise ValueError(f"{meta_path}: a policy for {self.metadata['observation_size']} "
                              f"features, this env gives {self.residual.features.size}")
+        if self.metadata["action_size"] != len(self.residual.joints):
+            raise CheckpointError(f"{meta_path}: action_size {self.metadata['action_size']}, "
+                                  f"but its residual acts on {len(self.residual.joints)} "
+                                  f"joints ({'every joint' if joints is None else joints})")
         self.policy = load_policy(checkpoint, self.metadata)
 
     def reset(self) -> None:

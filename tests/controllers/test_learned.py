@@ -50,7 +50,7 @@ def test_the_shipped_3d_policy_drives_the_so101_with_actions_in_its_space() -> N
     checkpoint = DEFAULT_CHECKPOINTS["ImitateVideo3D-v0"]
     meta = json.loads(checkpoint.with_suffix(".json").read_text())
     assert (meta["env"], meta["control"], meta["action_size"]) == ("ImitateVideo3D-v0",
-                                                                   "position", 6)
+                                                                   "position", 4)
     assert max(meta["train_seeds"]) < 1000 and max(meta["val_seeds"]) < 1000
     env = so101_env()
     controller = LearnedController(env)  # no checkpoint named: the env's shipped one
@@ -65,6 +65,134 @@ def test_the_shipped_3d_policy_drives_the_so101_with_actions_in_its_space() -> N
     actions = np.array(actions)
     assert actions.shape == (10, 6) and np.isfinite(actions).all()
     assert all(env.action_space.contains(a) for a in actions)
+
+
+SO101_POINTING_JOINTS = ["shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex"]
+
+
+def random_3d_policy(folder, residual_joints: list[str] | None, action_size: int,
+                     residual_scale: float = 0.5):
+    """A SAC policy with seeded random weights, saved as train_tracker.py saves one, with
+    the shipped 3-D policy's metadata but ``residual_joints`` (None: not recorded, as
+    before the key existed), ``action_size`` and ``residual_scale``: its path."""
+    import torch
+    from gymnasium import spaces
+    from stable_baselines3.common.utils import ConstantSchedule
+    from stable_baselines3.sac.policies import SACPolicy
+
+    from imimic_gym.checkpoints import file_sha256
+
+    metadata = json.loads(DEFAULT_CHECKPOINTS["ImitateVideo3D-v0"].with_suffix(".json")
+                          .read_text())
+    metadata.pop("residual_joints", None)
+    if residual_joints is not None:
+        metadata["residual_joints"] = residual_joints
+    metadata.update(action_size=action_size, residual_scale=residual_scale)
+    torch.manual_seed(0)
+    size = metadata["observation_size"]
+    policy = SACPolicy(spaces.Box(-5.0, 5.0, (size,), np.float32),
+                       spaces.Box(-1.0, 1.0, (action_size,), np.float32),
+                       ConstantSchedule(0.0), net_arch=metadata["net_arch"])
+    path = folder / "random3d.pt"
+    torch.save(policy.state_dict(), path)
+    metadata["sha256"] = file_sha256(path)
+    path.with_suffix(".json").write_text(json.dumps(metadata))
+    return path
+
+
+def learned_beside_scripted(env: gym.Env, controller, frames: int) -> tuple[np.ndarray,
+                                                                            np.ndarray]:
+    """(frames, 6) each: the learned controller's actions driving ``env`` from seed 0 and
+    what the scripted position controller, fed the same observations, would have sent."""
+    from imimic_gym.controllers import PositionController
+
+    scripted = PositionController(env)
+    obs, _ = env.reset(seed=0)
+    controller.reset()
+    scripted.reset()
+    learned_actions, scripted_actions = [], []
+    for _ in range(frames):
+        learned_actions.append(controller(obs))
+        scripted_actions.append(scripted(obs))
+        obs, *_ = env.step(learned_actions[-1])
+    return np.array(learned_actions), np.array(scripted_actions)
+
+
+def test_wrist_roll_and_gripper_follow_the_scripted_controller_exactly(tmp_path) -> None:
+    env = so101_env()
+    checkpoint = random_3d_policy(tmp_path, SO101_POINTING_JOINTS, 4)
+    learned, scripted = learned_beside_scripted(env, LearnedController(env, checkpoint), 11)
+    np.testing.assert_array_equal(learned[:, 4:], scripted[:, 4:])  # bit for bit
+    # The four pointing joints are the policy's (shoulder_lift sits at its limit on this
+    # clip, where the residual is clipped away).
+    assert np.abs(learned[:, :4] - scripted[:, :4]).max() > 0.01
+
+
+def test_the_shipped_3d_policy_leaves_wrist_roll_and_gripper_to_the_scripted_one() -> None:
+    env = so101_env()
+    controller = LearnedController(env)
+    assert controller.metadata["residual_joints"] == SO101_POINTING_JOINTS
+    learned, scripted = learned_beside_scripted(env, controller, 11)
+    np.testing.assert_array_equal(learned[:, 4:], scripted[:, 4:])
+
+
+def test_a_3d_policy_without_residual_joints_keeps_its_residual_on_all_six(tmp_path) -> None:
+    """Metadata from before ``residual_joints``: the meaning it was trained with."""
+    env = so101_env()
+    checkpoint = random_3d_policy(tmp_path, None, 6)
+    learned, scripted = learned_beside_scripted(env, LearnedController(env, checkpoint), 11)
+    assert (np.abs(learned[:, 4:] - scripted[:, 4:]).max(axis=0) > 1e-4).all()
+
+
+def test_residual_joints_that_do_not_fit_the_policy_or_the_arm_are_named(tmp_path) -> None:
+    from imimic_gym.checkpoints import CheckpointError
+
+    env = so101_env(n_frames=4)
+    with pytest.raises(CheckpointError, match=r"random3d\.json: action_size 6, but its "
+                                              r"residual acts on 4 joints"):
+        LearnedController(env, random_3d_policy(tmp_path, SO101_POINTING_JOINTS, 6))
+    with pytest.raises(ValueError, match=r"random3d\.json: residual joints must be distinct "
+                                         r"joints of this arm .*\(unknown: \['elbow'\]\)"):
+        LearnedController(env, random_3d_policy(tmp_path, ["shoulder_pan", "elbow"], 2))
+
+
+def test_a_3d_residual_training_env_acts_on_the_named_joints_only() -> None:
+    env = ResidualTracking(so101_env(n_frames=6), residual_scale=0.5,
+                           residual_joints=("shoulder_lift", "wrist_flex"))
+    assert env.action_space.shape == (2,)
+    reference = ResidualTracking(so101_env(n_frames=6), residual_scale=0.5)
+    assert reference.action_space.shape == (6,)
+    env.reset(seed=0)
+    reference.reset(seed=0)
+    for _ in range(5):
+        env.step(np.ones(2, dtype=np.float32))
+        reference.step(np.array([0, 1, 0, 1, 0, 0], dtype=np.float32))
+    np.testing.assert_array_equal(env.unwrapped.data.qpos, reference.unwrapped.data.qpos)
+
+
+def test_the_planar_policy_still_adds_its_residual_to_its_one_joint() -> None:
+    """The shipped planar policy records no residual_joints: its action is the scripted
+    controller's plus its residual times its scale, as before the key existed."""
+    from imimic_gym.controllers.learned import TrackerFeatures
+
+    meta = json.loads(DEFAULT_CHECKPOINT.with_suffix(".json").read_text())
+    assert "residual_joints" not in meta and meta["action_size"] == 1
+    env = don_env(control=meta["control"], n_frames=20, clip_seeds=(100,))
+    controller = LearnedController(env)
+    features = TrackerFeatures(env, meta["history_frames"], meta["rate_history_frames"])
+    scripted = SCRIPTED_CONTROLLERS[meta["control"]](env)
+    obs, _ = env.reset(seed=0)
+    controller.reset()
+    moved = []
+    for _ in range(19):
+        action = controller(obs)
+        residual, _ = controller.policy.predict(features(obs), deterministic=True)
+        base = scripted(obs)
+        expected = np.clip(base.astype(np.float64) + meta["residual_scale"] * residual, -1, 1)
+        np.testing.assert_array_equal(action, expected.astype(np.float32))
+        moved.append(abs(float(action[0] - base[0])))
+        obs, *_ = env.step(action)
+    assert max(moved) > 0.01
 
 
 def test_a_policy_for_the_other_robot_is_refused_by_name() -> None:

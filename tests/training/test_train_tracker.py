@@ -11,6 +11,7 @@ import pytest
 
 import imimic_gym  # noqa: F401
 from imimic_gym.clips.scenarios import scenario_names
+from imimic_gym.controllers import PositionController
 from imimic_gym.controllers.learned import LearnedController
 from imimic_gym.rollout import run_episode
 from imimic_gym.wrappers import DONObservation, RegistryObservation
@@ -51,6 +52,7 @@ def test_a_tiny_training_run_writes_a_policy_that_loads_and_tracks(tmp_path) -> 
     assert list((tmp_path / "runs").iterdir())  # TensorBoard events
 
     assert meta["control"] == "velocity" and meta["rate_history_frames"] == 12
+    assert meta["residual_joints"] == ["q1"] and meta["action_size"] == 1  # every joint
     env = DONObservation(gym.make("ImitateVideo-v0", scenario="exp2-servo", n_frames=20,
                                   control="velocity", clip_seeds=(900,)), keep_frame=False)
     metrics = run_episode(env, LearnedController(env, out), seed=0).metrics()
@@ -67,17 +69,27 @@ def test_a_tiny_3d_run_writes_a_policy_that_drives_the_so101(tmp_path) -> None:
                     "--eval-every", "48", "--out", str(out), "--logdir", str(tmp_path / "runs")],
                    check=True, timeout=300)
     meta = json.loads(out.with_suffix(".json").read_text())
-    # The 3-D defaults: the oracle's estimate under the position controller, six joints.
+    # The 3-D defaults: the oracle's estimate under the position controller, features of
+    # the six joints, a residual on the four that point the arm.
     assert (meta["env"], meta["estimator"], meta["control"]) == ("ImitateVideo3D-v0", "oracle",
                                                                  "position")
-    assert meta["action_size"] == 6 and meta["observation_size"] == (8 + 6 + 12) * 6 + 3 + 12
+    assert meta["observation_size"] == (8 + 6 + 12) * 6 + 3 + 12
+    assert meta["residual_joints"] == ["shoulder_pan", "shoulder_lift", "elbow_flex",
+                                       "wrist_flex"] and meta["action_size"] == 4
     assert set(meta["val_metrics"]) == {"spatial-wave/learned_rmse_deg",
                                         "spatial-wave/scripted_rmse_deg"}
     env = RegistryObservation(gym.make("ImitateVideo3D-v0", scenario="spatial-wave",
                                        n_frames=12, clip_seeds=(900,)), "oracle",
                               keep_frame=False)
-    metrics = run_episode(env, LearnedController(env, out), seed=0).metrics()
-    assert np.isfinite(metrics["rmse_deg"])
+    learned, scripted = LearnedController(env, out), PositionController(env)
+    obs, _ = env.reset(seed=0)
+    learned.reset()
+    scripted.reset()
+    for _ in range(11):  # wrist_roll and the gripper: the scripted action, bit for bit
+        action = learned(obs)
+        np.testing.assert_array_equal(action[4:], scripted(obs)[4:])
+        obs, reward, *_ = env.step(action)
+        assert np.isfinite(reward)
 
 
 def test_the_script_refuses_held_out_seeds() -> None:
@@ -230,6 +242,12 @@ def test_an_unknown_or_mismatched_scenario_is_named_before_any_work(
     (["--train-seeds", "0"], "argument --train-seeds: expected a whole number of at least 1"),
     (["--train-seeds", "48", "--val-seeds", "10"], "training seeds below the validation"),
     (["--algorithm", "dqn"], "argument --algorithm: invalid choice: 'dqn'"),
+    (["--env", "ImitateVideo3D-v0", "--residual-joints", "wrist_flex", "elbow"],
+     "--residual-joints: distinct joints of the ImitateVideo3D-v0 arm ('shoulder_pan', "
+     "'shoulder_lift', 'elbow_flex', 'wrist_flex', 'wrist_roll', 'gripper'), got "
+     "['wrist_flex', 'elbow']"),
+    (["--residual-joints", "q1", "q1"],
+     "--residual-joints: distinct joints of the ImitateVideo-v0 arm ('q1',), got ['q1', 'q1']"),
     (["--search", "gamma=0.9,2"], "argument --gamma: expected a number from 0 to 1"),
 ])
 def test_a_bad_option_is_one_line_before_a_run_folder_exists(tmp_path, flags: list[str],
