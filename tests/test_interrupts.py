@@ -97,13 +97,18 @@ def test_unstoppable_ignores_ctrl_c_inside_and_restores_it() -> None:
 
     from imimic_gym.interrupts import unstoppable
 
-    before = signal.getsignal(signal.SIGINT)
-    finished = False
-    with unstoppable():
-        os.kill(os.getpid(), signal.SIGINT)  # handled by this (main) thread at once
-        time.sleep(0.05)
-        finished = True
-    assert finished and signal.getsignal(signal.SIGINT) is before
-    with pytest.raises(KeyboardInterrupt):
-        os.kill(os.getpid(), signal.SIGINT)
-        time.sleep(5)  # interrupted by the KeyboardInterrupt long before
+    # Python's own handler, whatever the runner started with (a shell's background job
+    # starts with Ctrl-C ignored).
+    started_with = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        finished = False
+        with unstoppable():
+            os.kill(os.getpid(), signal.SIGINT)  # handled by this (main) thread at once
+            time.sleep(0.05)
+            finished = True
+        assert finished and signal.getsignal(signal.SIGINT) is signal.default_int_handler
+        with pytest.raises(KeyboardInterrupt):
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(5)  # interrupted by the KeyboardInterrupt long before
+    finally:
+        signal.signal(signal.SIGINT, started_with)
