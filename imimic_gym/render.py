@@ -52,9 +52,15 @@ class OffscreenRenderer:
         )
 
     def render(
-        self, data: mujoco.MjData, camera: int, depth: bool = False
+        self, data: mujoco.MjData, camera: int, depth: bool = False,
+        out: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray | None]:
-        """RGB (H, W, 3) uint8 and, if asked, depth (H, W) float32 metres, from one pass."""
+        """RGB (H, W, 3) uint8 and, if asked, depth (H, W) float32 metres, from one pass.
+        ``out``: an (H, W, 3) uint8 array (a view into a larger picture will do) that
+        receives the RGB and is returned, instead of a new array."""
+        if out is not None and (out.shape != self._rgb.shape or out.dtype != np.uint8):
+            raise ValueError(f"out must be {self._rgb.shape} uint8 for this renderer, got "
+                             f"{out.shape} {out.dtype}")
         self._gl.make_current()
         self._update(data, camera, None)
         self._scene.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = 0
@@ -62,7 +68,12 @@ class OffscreenRenderer:
         mujoco.mjr_render(self._rect, self._scene, self._context)
         mujoco.mjr_readPixels(self._rgb, self._zbuffer if depth else None, self._rect,
                               self._context)
-        rgb = np.flipud(self._rgb).copy()
+        flipped = np.flipud(self._rgb)  # OpenGL's rows run bottom to top
+        if out is None:
+            rgb = flipped.copy()
+        else:
+            np.copyto(out, flipped)
+            rgb = out
         return rgb, (self._metres() if depth else None)
 
     def _metres(self, zbuffer: np.ndarray | None = None) -> np.ndarray:

@@ -442,14 +442,21 @@ class ImitateVideoEnv(gym.Env, EzPickle):
             return None
         frame = self._frames[self.frame_index or 0]
         height, width = frame.shape[:2]
+        # Both halves are written straight into the picture: no half is copied twice.
         if self.render_height is not None and self.render_height < height:
             width = max(1, round(width * self.render_height / height))
             height = self.render_height
-            frame = cv2.resize(frame, (width, height), interpolation=cv2.INTER_AREA)
+            picture = np.empty((height, 2 * width, 3), dtype=np.uint8)
+            cv2.resize(frame, (width, height), dst=picture[:, :width],
+                       interpolation=cv2.INTER_AREA)
+        else:
+            picture = np.empty((height, 2 * width, 3), dtype=np.uint8)
+            picture[:, :width] = frame
         if self._renderer is None:
             self._renderer = OffscreenRenderer(self.model, height, width)
-        robot, _ = self._renderer.render(self.data, self.model.camera("robot").id)
-        return np.concatenate([frame, robot], axis=1)
+        self._renderer.render(self.data, self.model.camera("robot").id,
+                              out=picture[:, width:])
+        return picture
 
     def close(self) -> None:
         if self._renderer is not None:
