@@ -46,7 +46,7 @@ from imimic_gym.estimators.registry import get_estimator
 from imimic_gym.hardware.so101 import PortLostError as RobotLinkLost
 from imimic_gym.interrupts import CTRL_C, is_ctrl_c, unstoppable
 from imimic_gym.rollout import Observer, Step, Trajectory, episode
-from imimic_gym.wrappers import EstimatorObservation, RegistryObservation
+from imimic_gym.wrappers import EstimatorObservation, RegistryObservation, RenderAhead
 from imimic_gym.wrappers.spatial import RetargetedEstimator
 
 __all__ = ["PREVIEW_HEIGHT", "CsvLog", "MimicLog", "ServoOut", "mimic_frames", "run_mimic",
@@ -354,7 +354,8 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
                  if robot is None else
                  gym.make("ImitateVideo3D-v0", clip=clip, robot=robot, mapping=mapping,
                           render_mode="rgb_array", render_height=preview_height))
-        env = RegistryObservation(scene, estimator, keep_frame=False, **params)
+        # The robot view draws while the estimator reads the frame (RenderAhead).
+        env = RegistryObservation(RenderAhead(scene), estimator, keep_frame=False, **params)
     except BaseException:  # release the camera or file before the error goes up
         if hasattr(clip.frames, "close"):
             clip.frames.close()

@@ -24,3 +24,21 @@ def test_a_picture_drawn_into_a_view_is_the_picture_drawn_alone() -> None:
     np.testing.assert_array_equal(canvas[:, 100:180], alone)
     assert drawn.base is canvas  # written into the view, not a copy of it
     assert not canvas[:, :100].any() and not canvas[:, 180:].any()  # nothing else touched
+
+
+def test_a_picture_started_and_finished_later_is_the_picture_rendered_at_once() -> None:
+    model = SO101Spec().build_model()
+    data = mujoco.MjData(model)
+    data.qpos[:] = [0.3, -0.5, 0.8, 0.2, 1.0, 0.4]
+    mujoco.mj_forward(model, data)
+    camera = model.camera("robot").id
+    with OffscreenRenderer(model, 60, 80) as renderer:
+        at_once, _ = renderer.render(data, camera)
+        renderer.start(data, camera)
+        later = renderer.finish()
+        into = np.zeros((60, 80, 3), np.uint8)
+        renderer.start(data, camera)
+        assert renderer.finish(out=into) is into
+    np.testing.assert_array_equal(later, at_once)
+    np.testing.assert_array_equal(into, at_once)
+
