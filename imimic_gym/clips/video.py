@@ -55,6 +55,7 @@ DEFAULT_REFERENCE_DIRECTION = -math.pi / 2  # image down (CCW from image right)
 DEFAULT_JOINT_RANGE = (-math.pi / 3, math.pi / 3)  # the paper's 120-degree servo, centred
 LIVE_FPS = 30.0  # a camera that does not report its rate is taken to run at this
 UNBOUNDED = 2**31 - 1  # the nominal length of a stream whose length is unknown (frames)
+_COPIES_KEPT = 4  # a FrameStream's copies for `fresh` of the last frames read, at most
 
 
 class VideoOpenError(OSError):
@@ -270,15 +271,21 @@ class ReadAhead:
     an error of the decoding (`VideoFormatError`, say) is raised by the ``next`` that
     reaches it, after every frame decoded before it.
 
+    With ``copies``, the thread also copies each frame, and `last_copy` hands over the
+    copy of the frame ``next`` gave last: a frame's own array for whoever must hold one
+    (an env's observation), made off the caller's thread.
+
     The thread is ``thread`` (a daemon, so that a decoder that never returns cannot keep
     the process alive).
     """
 
     def __init__(self, reader: VideoReader, depth: int = 2, limit: int | None = None,
-                 join_timeout_s: float = 10.0) -> None:
+                 join_timeout_s: float = 10.0, copies: bool = False) -> None:
         if depth < 1:
             raise ValueError(f"depth must be at least 1 frame, got {depth}")
         self.reader, self.limit, self.join_timeout_s = reader, limit, join_timeout_s
+        self.copies = copies
+        self._copy: np.ndarray | None = None
         self._queue: queue.Queue[Any] = queue.Queue(maxsize=depth)
         self._stop = threading.Event()
         self._finished = False
@@ -301,7 +308,7 @@ class ReadAhead:
         outcome: Any = _END
         try:
             for count, frame in enumerate(frames, start=1):
-                if not self._hand_over(frame):
+                if not self._hand_over((frame, frame.copy() if self.copies else None)):
                     return
                 if self.limit is not None and count >= self.limit:
                     break
@@ -331,17 +338,25 @@ class ReadAhead:
                 except queue.Empty:  # closed: nothing more comes
                     self._finished = True
                     raise StopIteration from None
-        if isinstance(item, np.ndarray):
-            return item
+        if isinstance(item, tuple):
+            frame, self._copy = item
+            return frame
         self._finished = True
         if isinstance(item, _Failed):
             raise item.error
         raise StopIteration
 
+    def last_copy(self) -> np.ndarray | None:
+        """With ``copies``: the copy of the frame ``next`` gave last, made on the thread;
+        None without ``copies`` or once handed over."""
+        copy, self._copy = self._copy, None
+        return copy
+
     def close(self) -> None:
         """Stop decoding, drop the frames decoded ahead and wait (at most
         ``join_timeout_s``) for the thread, which releases the capture."""
         self._finished = True
+        self._copy = None
         self._stop.set()
         while True:
             try:
@@ -407,7 +422,8 @@ class FrameStream:
     construction (it fixes the shape); if that fails, the reader is closed.
 
     ``read_ahead``: frames of a file decoded ahead on a thread (`ReadAhead`, never past
-    the length); 0, or a live source (a camera, a URL), reads each frame when asked for.
+    the length, each with a copy for `fresh`); 0, or a live source (a camera, a URL),
+    reads each frame when asked for.
     """
 
     dtype = np.dtype(np.uint8)
@@ -432,9 +448,10 @@ class FrameStream:
             self.cut_short = max_frames is not None and (reader.frame_count is None
                                                          or max_frames < reader.frame_count)
             self._frames: deque[np.ndarray] = deque(maxlen=buffer)
+            self._copies: dict[int, np.ndarray] = {}  # `fresh`'s, by frame index
             self._next_index = 0
             self.ended = False
-            self._iterator = (ReadAhead(reader, read_ahead, limit=limit)
+            self._iterator = (ReadAhead(reader, read_ahead, limit=limit, copies=True)
                               if read_ahead and not reader.live else iter(reader))
             self._pull()
         except BaseException:
@@ -449,8 +466,22 @@ class FrameStream:
         except StopIteration:
             self.ended = True
             return False
+        if isinstance(self._iterator, ReadAhead):
+            copy = self._iterator.last_copy()
+            if copy is not None:
+                self._copies[self._next_index] = copy
+                self._copies.pop(self._next_index - _COPIES_KEPT, None)
         self._next_index += 1
         return True
+
+    def fresh(self, index: int) -> np.ndarray:
+        """Frame ``index`` (as ``self[index]``) in an array of its own that nothing else
+        holds, such as an observation must be: for a file read ahead, the copy its
+        decoding thread made (the first time this frame is asked for this way, while it
+        is among the last few read); else a copy made now."""
+        frame = self[index]
+        copy = self._copies.pop(index, None)
+        return frame.copy() if copy is None else copy
 
     def __len__(self) -> int:
         return self._length

@@ -17,6 +17,7 @@ from gymnasium.utils import EzPickle
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import ClipSpec, get_scenario, robot_for_clip
 from imimic_gym.clips.types import Clip, depth_to_frame
+from imimic_gym.clips.video import FrameStream
 from imimic_gym.envs.arguments import check_arguments, check_sources
 from imimic_gym.estimators.types import Estimate, EstimatorContext
 from imimic_gym.kinematics import wrap_angle
@@ -329,8 +330,10 @@ class ImitateVideoEnv(gym.Env, EzPickle):
                         torque=np.zeros(truth.angles.shape[1]), trust=1.0)
 
     def _obs(self) -> dict[str, np.ndarray]:
+        frames = self._frames  # a stream's frame comes copied off this thread
         return {
-            "frame": self._frames[self.frame_index].copy(),
+            "frame": (frames.fresh(self.frame_index) if isinstance(frames, FrameStream)
+                      else frames[self.frame_index].copy()),
             "qpos": self.data.qpos.copy(),
             "qvel": self.data.qvel.clip(-MAX_OBSERVED_SPEED, MAX_OBSERVED_SPEED),
         }

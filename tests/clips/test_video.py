@@ -95,6 +95,13 @@ def test_read_ahead_gives_a_plain_decodes_frames_in_order(servo_mp4) -> None:
     for mine, theirs in zip(ahead, plain, strict=True):
         np.testing.assert_array_equal(mine, theirs)
     assert reader.frames_read == 90 and reader.capture is None  # released by its thread
+    with_copies = ReadAhead(VideoReader(servo_mp4), depth=2, copies=True)
+    for index in range(3):
+        frame = next(with_copies)
+        copy = with_copies.last_copy()
+        np.testing.assert_array_equal(copy, plain[index])
+        assert not np.shares_memory(copy, frame) and with_copies.last_copy() is None
+    with_copies.close()
     # The streamed clip, indexed as the env does, holds the same frames.
     clip = stream_video(servo_mp4)
     for index in (0, 1, 2, 45, 89):
@@ -151,6 +158,36 @@ def test_a_file_without_a_frame_fails_in_stream_video_with_no_thread_left(tmp_pa
     with pytest.raises(VideoOpenError, match=r"notes\.mp4: OpenCV cannot decode it"):
         stream_video(tmp_path / "notes.mp4")
     assert not decoding_threads(tmp_path / "notes.mp4")
+
+
+def test_fresh_frames_are_the_frames_in_arrays_of_their_own(servo_mp4) -> None:
+    plain = list(VideoReader(servo_mp4))
+    for read_ahead in (2, 0):  # copied on the decoding thread, or when asked for
+        stream = stream_video(servo_mp4, read_ahead=read_ahead).frames
+        for index in range(6):
+            frame = stream.fresh(index)
+            np.testing.assert_array_equal(frame, plain[index])
+            assert not np.shares_memory(frame, stream[index])
+            again = stream.fresh(index)  # asked twice: another array of its own
+            np.testing.assert_array_equal(again, plain[index])
+            assert not np.shares_memory(again, frame)
+        stream.close()
+
+
+def test_a_streamed_envs_observation_is_its_own_array(servo_mp4) -> None:
+    plain = list(VideoReader(servo_mp4))
+    clip = stream_video(servo_mp4, max_frames=5)
+    env = gym.make("ImitateVideo-v0", clip=clip)
+    seen = [env.reset(seed=0)[0]["frame"]]
+    for _ in range(3):
+        seen.append(env.step(np.zeros(1, np.float32))[0]["frame"])
+    for index, frame in enumerate(seen):
+        np.testing.assert_array_equal(frame, plain[index])
+        assert not np.shares_memory(frame, clip.frames[index])
+    seen[1][:] = 0  # the caller's to change: the stream's frame stays as decoded
+    np.testing.assert_array_equal(clip.frames[1], plain[1])
+    env.close()
+    clip.frames.close()
 
 
 def test_a_live_source_is_read_when_asked_for(servo_mp4) -> None:
