@@ -119,6 +119,10 @@ class VideoReader:
             sequences; cameras default to `LIVE_FPS`). A file's own rate wins.
         max_consecutive_failures: failed reads in a row after which the stream has
             ended; fewer, followed by a good frame, are skipped corrupt frames.
+        decode_threads: FFmpeg's decoding threads for a video file (None: OpenCV's
+            default, one a core). The frames are the same with any number; one costs
+            the least CPU in all, where nobody waits on each frame's decoding (a
+            `ReadAhead`).
 
     Attributes (after opening): ``fps`` (float, frames/s), ``width``, ``height``
     (pixels, of the first frame once read, else as the container reports),
@@ -127,9 +131,12 @@ class VideoReader:
     """
 
     def __init__(self, source: str | int | Path, fps: float | None = None,
-                 max_consecutive_failures: int = 8) -> None:
+                 max_consecutive_failures: int = 8, decode_threads: int | None = None) -> None:
         if fps is not None and not (math.isfinite(fps) and fps > 0):
             raise ValueError(f"fps must be a positive number of frames/s, got {fps!r}")
+        if decode_threads is not None and decode_threads < 1:
+            raise ValueError(f"decode_threads must be at least 1, got {decode_threads!r}")
+        self.decode_threads = decode_threads
         self.source, self.name, self.live = source, _describe(source), _is_live(source)
         self.requested_fps = fps
         self.max_consecutive_failures = max_consecutive_failures
@@ -150,8 +157,10 @@ class VideoReader:
             if not pattern and path.stat().st_size == 0:
                 raise VideoOpenError(f"cannot open video {self.name}: the file is empty")
             backend = cv2.CAP_IMAGES if pattern else cv2.CAP_FFMPEG
+            threads = ([] if pattern or self.decode_threads is None
+                       else [cv2.CAP_PROP_N_THREADS, self.decode_threads])
             with _ffmpeg_quiet():
-                capture = cv2.VideoCapture(str(path), backend)
+                capture = cv2.VideoCapture(str(path), backend, threads)
         else:
             index = int(str(self.source)) if str(self.source).isdigit() else str(self.source)
             with _ffmpeg_quiet():
@@ -541,7 +550,10 @@ def stream_video(
     `FrameStream`. Close it with ``clip.frames.close()`` (the capture is also released
     when the stream ends)."""
     ranges = tuple(joint_ranges) if joint_ranges is not None else (DEFAULT_JOINT_RANGE,) * n_links
-    reader = VideoReader(source, fps=fps).open()
+    # A file decoded ahead needs no decoding threads of FFmpeg's own (decode_threads).
+    reader = VideoReader(source, fps=fps,
+                         decode_threads=1 if read_ahead and not _is_live(source) else None
+                         ).open()
     if max_seconds is not None:
         limit = max(1, round(max_seconds * reader.fps))
         max_frames = limit if max_frames is None else min(max_frames, limit)

@@ -109,6 +109,15 @@ def test_read_ahead_gives_a_plain_decodes_frames_in_order(servo_mp4) -> None:
     assert clip.frames.reader.capture is None and not decoding_threads(servo_mp4)
 
 
+def test_one_decoding_thread_gives_the_same_frames(servo_mp4) -> None:
+    default = list(VideoReader(servo_mp4))
+    alone = VideoReader(servo_mp4, decode_threads=1)
+    for mine, theirs in zip(alone, default, strict=True):
+        np.testing.assert_array_equal(mine, theirs)
+    with pytest.raises(ValueError, match="decode_threads must be at least 1, got 0"):
+        VideoReader(servo_mp4, decode_threads=0)
+
+
 def test_read_ahead_stops_at_the_length_asked_for(servo_mp4) -> None:
     clip = stream_video(servo_mp4, max_frames=5)
     assert len(clip) == 5 and clip.frames.cut_short
