@@ -268,6 +268,38 @@ class _Failed:
 _END = object()  # a `ReadAhead`'s decoding reached the end of the stream
 
 
+def _hand_over(pending: queue.Queue[Any], stop: threading.Event, item: Any) -> bool:
+    """Put ``item`` in ``pending`` as soon as there is room; False if ``stop`` is set first."""
+    while not stop.is_set():
+        try:
+            pending.put(item, timeout=0.05)
+            return True
+        except queue.Full:
+            continue
+    return False
+
+
+def _decode_ahead(reader: VideoReader, pending: queue.Queue[Any], stop: threading.Event,
+                  limit: int | None, copies: bool) -> None:
+    """A `ReadAhead`'s thread: ``reader``'s frames (each with a copy, with ``copies``) into
+    ``pending``, then the end or the error; the capture released here, on the thread
+    that reads it."""
+    frames = iter(reader)
+    outcome: Any = _END
+    try:
+        for count, frame in enumerate(frames, start=1):
+            if not _hand_over(pending, stop, (frame, frame.copy() if copies else None)):
+                return
+            if limit is not None and count >= limit:
+                break
+    except BaseException as error:  # handed to the caller, in order
+        outcome = _Failed(error)
+    finally:
+        frames.close()
+        reader.close()
+    _hand_over(pending, stop, outcome)
+
+
 class ReadAhead:
     """The frames of a `VideoReader`, as ``iter(reader)`` gives them ((H, W, 3) uint8 RGB,
     in order, the same errors after the same frames), decoded on a thread of its own at
@@ -285,7 +317,8 @@ class ReadAhead:
     (an env's observation), made off the caller's thread.
 
     The thread is ``thread`` (a daemon, so that a decoder that never returns cannot keep
-    the process alive).
+    the process alive); a read-ahead dropped without `close` stops it too, once
+    collected.
     """
 
     def __init__(self, reader: VideoReader, depth: int = 2, limit: int | None = None,
@@ -298,35 +331,15 @@ class ReadAhead:
         self._queue: queue.Queue[Any] = queue.Queue(maxsize=depth)
         self._stop = threading.Event()
         self._finished = False
-        self.thread = threading.Thread(target=self._decode, name=f"decoding {reader.name}",
-                                       daemon=True)
+        # The thread holds no reference to this object, so that one dropped unclosed is
+        # collected, and its __del__ stops the thread.
+        self.thread = threading.Thread(
+            target=_decode_ahead, args=(reader, self._queue, self._stop, limit, copies),
+            name=f"decoding {reader.name}", daemon=True)
         self.thread.start()
 
-    def _hand_over(self, item: Any) -> bool:
-        """Put ``item`` in the queue as soon as there is room; False if closed first."""
-        while not self._stop.is_set():
-            try:
-                self._queue.put(item, timeout=0.05)
-                return True
-            except queue.Full:
-                continue
-        return False
-
-    def _decode(self) -> None:
-        frames = iter(self.reader)
-        outcome: Any = _END
-        try:
-            for count, frame in enumerate(frames, start=1):
-                if not self._hand_over((frame, frame.copy() if self.copies else None)):
-                    return
-                if self.limit is not None and count >= self.limit:
-                    break
-        except BaseException as error:  # handed to the caller, in order
-            outcome = _Failed(error)
-        finally:
-            frames.close()
-            self.reader.close()  # here, on the thread that reads the capture
-        self._hand_over(outcome)
+    def __del__(self) -> None:
+        self._stop.set()
 
     def __iter__(self) -> ReadAhead:
         return self

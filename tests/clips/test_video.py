@@ -141,6 +141,19 @@ def test_closing_a_read_ahead_stops_its_thread_and_releases_the_capture(servo_mp
     assert clip.frames.reader.capture is None and not decoding_threads(servo_mp4)
 
 
+def test_a_read_ahead_dropped_unclosed_stops_once_collected(servo_mp4) -> None:
+    import gc
+
+    reader = VideoReader(servo_mp4)
+    frames = ReadAhead(reader, depth=2)
+    next(frames)
+    thread = frames.thread
+    del frames
+    gc.collect()
+    thread.join(timeout=30)
+    assert not thread.is_alive() and reader.capture is None
+
+
 def test_a_decoding_error_comes_after_the_frames_before_it_and_stops_the_thread(
         tmp_path) -> None:
     for i in range(6):
