@@ -20,7 +20,11 @@ cleanly with all of them written up to that frame.
 Latency is the wall time from asking the source for a frame to the joint command being
 ready (reading, decoding, estimating, controlling; not the video rendering), so on a
 live camera it is how far the robot's command trails the picture, less the camera's own
-delay.
+delay. A file is run for throughput instead: its frames are decoded ahead on a thread
+(`clips.video.ReadAhead`, not counted) and the robot view of each state starts drawing
+before the estimator reads the frame (`wrappers.RenderAhead`, counted), so that the two
+cores share the work; a camera's frame is read when asked for and nothing is drawn
+before the command.
 """
 
 from __future__ import annotations
@@ -46,7 +50,7 @@ from imimic_gym.estimators.registry import get_estimator
 from imimic_gym.hardware.so101 import PortLostError as RobotLinkLost
 from imimic_gym.interrupts import CTRL_C, is_ctrl_c, unstoppable
 from imimic_gym.rollout import Observer, Step, Trajectory, episode
-from imimic_gym.wrappers import EstimatorObservation, RegistryObservation
+from imimic_gym.wrappers import EstimatorObservation, RegistryObservation, RenderAhead
 from imimic_gym.wrappers.spatial import RetargetedEstimator
 
 __all__ = ["PREVIEW_HEIGHT", "CsvLog", "MimicLog", "ServoOut", "mimic_frames", "run_mimic",
@@ -354,7 +358,10 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
                  if robot is None else
                  gym.make("ImitateVideo3D-v0", clip=clip, robot=robot, mapping=mapping,
                           render_mode="rgb_array", render_height=preview_height))
-        env = RegistryObservation(scene, estimator, keep_frame=False, **params)
+        # A file's robot view draws while the estimator reads the frame (RenderAhead); a
+        # camera's command is not held up by it.
+        env = RegistryObservation(scene if live else RenderAhead(scene), estimator,
+                                  keep_frame=False, **params)
     except BaseException:  # release the camera or file before the error goes up
         if hasattr(clip.frames, "close"):
             clip.frames.close()

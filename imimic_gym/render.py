@@ -52,17 +52,56 @@ class OffscreenRenderer:
         )
 
     def render(
-        self, data: mujoco.MjData, camera: int, depth: bool = False
+        self, data: mujoco.MjData, camera: int, depth: bool = False,
+        out: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray | None]:
-        """RGB (H, W, 3) uint8 and, if asked, depth (H, W) float32 metres, from one pass."""
+        """RGB (H, W, 3) uint8 and, if asked, depth (H, W) float32 metres, from one pass.
+        ``out``: an (H, W, 3) uint8 array (a view into a larger picture will do) that
+        receives the RGB and is returned, instead of a new array."""
+        self._check_out(out)
+        self._draw(data, camera)
+        return self._read(out, depth)
+
+    def start(self, data: mujoco.MjData, camera: int) -> None:
+        """Begin drawing the RGB picture that `render` would give, and return without
+        waiting for it: the GL driver draws it meanwhile (Mesa's software renderer on a
+        thread of its own). `finish` reads it back."""
+        from OpenGL import GL  # after mujoco has chosen the GL platform
+
+        self._draw(data, camera)
+        GL.glFlush()  # hands the drawing to the driver now, not at the read-back
+
+    def finish(self, out: np.ndarray | None = None) -> np.ndarray:
+        """The RGB picture (H, W, 3) uint8 that `start` began, into ``out`` as in
+        `render`; it waits for the drawing to end. Nothing else may draw with this
+        renderer in between."""
+        self._check_out(out)
+        self._gl.make_current()
+        rgb, _ = self._read(out, depth=False)
+        return rgb
+
+    def _check_out(self, out: np.ndarray | None) -> None:
+        if out is not None and (out.shape != self._rgb.shape or out.dtype != np.uint8):
+            raise ValueError(f"out must be {self._rgb.shape} uint8 for this renderer, got "
+                             f"{out.shape} {out.dtype}")
+
+    def _draw(self, data: mujoco.MjData, camera: int) -> None:
         self._gl.make_current()
         self._update(data, camera, None)
         self._scene.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = 0
         self._scene.flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = 0
         mujoco.mjr_render(self._rect, self._scene, self._context)
+
+    def _read(self, out: np.ndarray | None, depth: bool
+              ) -> tuple[np.ndarray, np.ndarray | None]:
         mujoco.mjr_readPixels(self._rgb, self._zbuffer if depth else None, self._rect,
                               self._context)
-        rgb = np.flipud(self._rgb).copy()
+        flipped = np.flipud(self._rgb)  # OpenGL's rows run bottom to top
+        if out is None:
+            rgb = flipped.copy()
+        else:
+            np.copyto(out, flipped)
+            rgb = out
         return rgb, (self._metres() if depth else None)
 
     def _metres(self, zbuffer: np.ndarray | None = None) -> np.ndarray:

@@ -4,6 +4,7 @@ import pickle
 import re
 import warnings
 
+import cv2
 import gymnasium as gym
 import mujoco
 import numpy as np
@@ -14,6 +15,7 @@ import imimic_gym
 from imimic_gym.envs.imitate_video import ImitateVideoEnv, SimulationUnstableError
 from imimic_gym.envs.imitate_video_3d import ImitateVideo3DEnv
 from imimic_gym.kinematics import wrap_angle
+from imimic_gym.render import OffscreenRenderer
 
 FAST = {"n_frames": 30}
 
@@ -306,9 +308,17 @@ def test_only_a_few_clips_stay_in_memory() -> None:
 def test_render_height_draws_a_smaller_picture() -> None:
     env = gym.make("ImitateVideo-v0", scenario="default", n_frames=5, render_mode="rgb_array",
                    render_height=120)
-    env.reset(seed=0)
+    obs, _ = env.reset(seed=0)
     picture = env.render()
     assert picture.shape == (120, 320, 3) and picture.dtype == np.uint8
+    # The frame area-averaged down beside the robot drawn at that size.
+    np.testing.assert_array_equal(
+        picture[:, :160], cv2.resize(obs["frame"], (160, 120), interpolation=cv2.INTER_AREA))
+    inner = env.unwrapped
+    with OffscreenRenderer(inner.model, 120, 160) as renderer:
+        robot, _ = renderer.render(inner.data, inner.model.camera("robot").id)
+    np.testing.assert_array_equal(picture[:, 160:], robot)
+    assert robot.std() > 5 and env.render() is not picture  # a new picture each call
     full = gym.make("ImitateVideo-v0", scenario="default", n_frames=5, render_mode="rgb_array",
                     render_height=480)  # taller than the clip: the clip's own size
     full.reset(seed=0)

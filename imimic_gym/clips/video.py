@@ -9,7 +9,10 @@
 - `clips.video_load.load_video` reads a whole file into a `Clip` (random access: what
   an RL env resets into); `stream_video` wraps a reader in a `Clip` whose frames are a
   `FrameStream`, read on demand and kept in a bounded buffer, so a live camera never
-  needs the whole stream in memory.
+  needs the whole stream in memory. A file's stream is decoded on a thread of its own a
+  frame or two ahead of the caller (`ReadAhead`), so that decoding overlaps the work on the
+  frame before; a camera's or URL's is read when asked for, so that each frame is the
+  newest one the source has.
 
 Problems are named: a source that cannot be opened raises `VideoOpenError` (an OSError);
 one with no decodable frame or whose resolution changes mid-stream raises
@@ -28,7 +31,9 @@ from __future__ import annotations
 import contextlib
 import math
 import os
+import queue
 import subprocess
+import threading
 import time
 from collections import deque
 from collections.abc import Generator, Iterator, Sequence
@@ -41,15 +46,16 @@ import numpy as np
 from imimic_gym.clips.types import Clip
 
 __all__ = [
-    "DEFAULT_JOINT_RANGE", "DEFAULT_REFERENCE_DIRECTION", "FrameStream", "StreamEndedError",
-    "VideoFormatError", "VideoOpenError", "VideoReader", "require_frames", "stream_video",
-    "video_meta",
+    "DEFAULT_JOINT_RANGE", "DEFAULT_REFERENCE_DIRECTION", "FrameStream", "ReadAhead",
+    "StreamEndedError", "VideoFormatError", "VideoOpenError", "VideoReader", "require_frames",
+    "stream_video", "video_meta",
 ]
 
 DEFAULT_REFERENCE_DIRECTION = -math.pi / 2  # image down (CCW from image right)
 DEFAULT_JOINT_RANGE = (-math.pi / 3, math.pi / 3)  # the paper's 120-degree servo, centred
 LIVE_FPS = 30.0  # a camera that does not report its rate is taken to run at this
 UNBOUNDED = 2**31 - 1  # the nominal length of a stream whose length is unknown (frames)
+_COPIES_KEPT = 4  # a FrameStream's copies for `fresh` of the last frames read, at most
 
 
 class VideoOpenError(OSError):
@@ -113,6 +119,10 @@ class VideoReader:
             sequences; cameras default to `LIVE_FPS`). A file's own rate wins.
         max_consecutive_failures: failed reads in a row after which the stream has
             ended; fewer, followed by a good frame, are skipped corrupt frames.
+        decode_threads: FFmpeg's decoding threads for a video file (None: OpenCV's
+            default, one a core). The frames are the same with any number; one costs
+            the least CPU in all, where nobody waits on each frame's decoding (a
+            `ReadAhead`).
 
     Attributes (after opening): ``fps`` (float, frames/s), ``width``, ``height``
     (pixels, of the first frame once read, else as the container reports),
@@ -121,9 +131,12 @@ class VideoReader:
     """
 
     def __init__(self, source: str | int | Path, fps: float | None = None,
-                 max_consecutive_failures: int = 8) -> None:
+                 max_consecutive_failures: int = 8, decode_threads: int | None = None) -> None:
         if fps is not None and not (math.isfinite(fps) and fps > 0):
             raise ValueError(f"fps must be a positive number of frames/s, got {fps!r}")
+        if decode_threads is not None and decode_threads < 1:
+            raise ValueError(f"decode_threads must be at least 1, got {decode_threads!r}")
+        self.decode_threads = decode_threads
         self.source, self.name, self.live = source, _describe(source), _is_live(source)
         self.requested_fps = fps
         self.max_consecutive_failures = max_consecutive_failures
@@ -144,8 +157,10 @@ class VideoReader:
             if not pattern and path.stat().st_size == 0:
                 raise VideoOpenError(f"cannot open video {self.name}: the file is empty")
             backend = cv2.CAP_IMAGES if pattern else cv2.CAP_FFMPEG
+            threads = ([] if pattern or self.decode_threads is None
+                       else [cv2.CAP_PROP_N_THREADS, self.decode_threads])
             with _ffmpeg_quiet():
-                capture = cv2.VideoCapture(str(path), backend)
+                capture = cv2.VideoCapture(str(path), backend, threads)
         else:
             index = int(str(self.source)) if str(self.source).isdigit() else str(self.source)
             with _ffmpeg_quiet():
@@ -243,6 +258,137 @@ class VideoReader:
             self.close()
 
 
+class _Failed:
+    """The error that ended a `ReadAhead`'s decoding, handed over in its place."""
+
+    def __init__(self, error: BaseException) -> None:
+        self.error = error
+
+
+_END = object()  # a `ReadAhead`'s decoding reached the end of the stream
+
+
+def _hand_over(pending: queue.Queue[Any], stop: threading.Event, item: Any) -> bool:
+    """Put ``item`` in ``pending`` as soon as there is room; False if ``stop`` is set first."""
+    while not stop.is_set():
+        try:
+            pending.put(item, timeout=0.05)
+            return True
+        except queue.Full:
+            continue
+    return False
+
+
+def _decode_ahead(reader: VideoReader, pending: queue.Queue[Any], stop: threading.Event,
+                  limit: int | None, copies: bool) -> None:
+    """A `ReadAhead`'s thread: ``reader``'s frames (each with a copy, with ``copies``) into
+    ``pending``, then the end or the error; the capture released here, on the thread
+    that reads it."""
+    frames = iter(reader)
+    outcome: Any = _END
+    try:
+        for count, frame in enumerate(frames, start=1):
+            if not _hand_over(pending, stop, (frame, frame.copy() if copies else None)):
+                return
+            if limit is not None and count >= limit:
+                break
+    except BaseException as error:  # handed to the caller, in order
+        outcome = _Failed(error)
+    finally:
+        frames.close()
+        reader.close()
+    _hand_over(pending, stop, outcome)
+
+
+class ReadAhead:
+    """The frames of a `VideoReader`, as ``iter(reader)`` gives them ((H, W, 3) uint8 RGB,
+    in order, the same errors after the same frames), decoded on a thread of its own at
+    most ``depth`` frames ahead of the caller.
+
+    The thread owns the capture from the start: it opens the reader's iteration, and
+    releases the capture itself when the stream ends, fails, reaches ``limit`` frames or
+    is closed; nothing else may touch the reader's capture meanwhile. `close` stops it
+    and waits up to ``join_timeout_s`` for it (it stops within one frame's decoding);
+    an error of the decoding (`VideoFormatError`, say) is raised by the ``next`` that
+    reaches it, after every frame decoded before it.
+
+    With ``copies``, the thread also copies each frame, and `last_copy` hands over the
+    copy of the frame ``next`` gave last: a frame's own array for whoever must hold one
+    (an env's observation), made off the caller's thread.
+
+    The thread is ``thread`` (a daemon, so that a decoder that never returns cannot keep
+    the process alive); a read-ahead dropped without `close` stops it too, once
+    collected.
+    """
+
+    def __init__(self, reader: VideoReader, depth: int = 2, limit: int | None = None,
+                 join_timeout_s: float = 10.0, copies: bool = False) -> None:
+        if depth < 1:
+            raise ValueError(f"depth must be at least 1 frame, got {depth}")
+        self.reader, self.limit, self.join_timeout_s = reader, limit, join_timeout_s
+        self.copies = copies
+        self._copy: np.ndarray | None = None
+        self._queue: queue.Queue[Any] = queue.Queue(maxsize=depth)
+        self._stop = threading.Event()
+        self._finished = False
+        # The thread holds no reference to this object, so that one dropped unclosed is
+        # collected, and its __del__ stops the thread.
+        self.thread = threading.Thread(
+            target=_decode_ahead, args=(reader, self._queue, self._stop, limit, copies),
+            name=f"decoding {reader.name}", daemon=True)
+        self.thread.start()
+
+    def __del__(self) -> None:
+        self._stop.set()
+
+    def __iter__(self) -> ReadAhead:
+        return self
+
+    def __next__(self) -> np.ndarray:
+        if self._finished:
+            raise StopIteration
+        while True:
+            try:
+                item = self._queue.get(timeout=0.1)
+                break
+            except queue.Empty:
+                if self.thread.is_alive():
+                    continue
+                try:  # the thread may have handed its last item over just now
+                    item = self._queue.get_nowait()
+                    break
+                except queue.Empty:  # closed: nothing more comes
+                    self._finished = True
+                    raise StopIteration from None
+        if isinstance(item, tuple):
+            frame, self._copy = item
+            return frame
+        self._finished = True
+        if isinstance(item, _Failed):
+            raise item.error
+        raise StopIteration
+
+    def last_copy(self) -> np.ndarray | None:
+        """With ``copies``: the copy of the frame ``next`` gave last, made on the thread;
+        None without ``copies`` or once handed over."""
+        copy, self._copy = self._copy, None
+        return copy
+
+    def close(self) -> None:
+        """Stop decoding, drop the frames decoded ahead and wait (at most
+        ``join_timeout_s``) for the thread, which releases the capture."""
+        self._finished = True
+        self._copy = None
+        self._stop.set()
+        while True:
+            try:
+                self._queue.get_nowait()
+            except queue.Empty:
+                break
+        if self.thread is not threading.current_thread():
+            self.thread.join(timeout=self.join_timeout_s)
+
+
 def _decodes_cleanly(path: Path, timeout_s: float = 600.0) -> bool:
     """Whether ffmpeg decodes the first video stream of ``path`` to its end without an
     error (a decode that outlasts ``timeout_s`` counts as failed)."""
@@ -295,41 +441,69 @@ class FrameStream:
     (``length_known`` is False: a live camera runs until it stops; ``cut_short`` is True
     when ``max_frames`` set the length); a stream may end sooner (a truncated file's
     container may promise more frames than it holds). The first frame is read on
-    construction (it fixes the shape).
+    construction (it fixes the shape); if that fails, the reader is closed.
+
+    ``read_ahead``: frames of a file decoded ahead on a thread (`ReadAhead`, never past
+    the length, each with a copy for `fresh`); 0, or a live source (a camera, a URL),
+    reads each frame when asked for.
     """
 
     dtype = np.dtype(np.uint8)
     ndim = 4
 
     def __init__(self, reader: VideoReader, buffer: int = 32,
-                 max_frames: int | None = None) -> None:
-        if buffer < 2:
-            raise ValueError(f"buffer must hold at least 2 frames, got {buffer}")
+                 max_frames: int | None = None, read_ahead: int = 2) -> None:
         self.reader = reader
-        self._iterator = iter(reader)
-        self._frames: deque[np.ndarray] = deque(maxlen=buffer)
-        self._next_index = 0
-        self.ended = False
-        self._pull()
-        first = self._frames[0]
-        limit = reader.frame_count if reader.frame_count is not None else max_frames
-        if limit is not None and max_frames is not None:
-            limit = min(limit, max_frames)
-        self.length_known = limit is not None
-        self._length = max(1, limit) if limit is not None else UNBOUNDED
-        # True when max_frames, not the end of the source, sets the length.
-        self.cut_short = max_frames is not None and (reader.frame_count is None
-                                                     or max_frames < reader.frame_count)
-        self.shape = (self._length, *first.shape)
+        self._iterator: Generator[np.ndarray, None, None] | ReadAhead | None = None
+        try:
+            if buffer < 2:
+                raise ValueError(f"buffer must hold at least 2 frames, got {buffer}")
+            if read_ahead < 0:
+                raise ValueError(f"read_ahead must be 0 or more frames, got {read_ahead}")
+            reader.open()
+            limit = reader.frame_count if reader.frame_count is not None else max_frames
+            if limit is not None and max_frames is not None:
+                limit = min(limit, max_frames)
+            self.length_known = limit is not None
+            self._length = max(1, limit) if limit is not None else UNBOUNDED
+            # True when max_frames, not the end of the source, sets the length.
+            self.cut_short = max_frames is not None and (reader.frame_count is None
+                                                         or max_frames < reader.frame_count)
+            self._frames: deque[np.ndarray] = deque(maxlen=buffer)
+            self._copies: dict[int, np.ndarray] = {}  # `fresh`'s, by frame index
+            self._next_index = 0
+            self.ended = False
+            self._iterator = (ReadAhead(reader, read_ahead, limit=limit, copies=True)
+                              if read_ahead and not reader.live else iter(reader))
+            self._pull()
+        except BaseException:
+            self.close()
+            raise
+        self.shape = (self._length, *self._frames[0].shape)
 
     def _pull(self) -> bool:
+        assert self._iterator is not None
         try:
             self._frames.append(next(self._iterator))
         except StopIteration:
             self.ended = True
             return False
+        if isinstance(self._iterator, ReadAhead):
+            copy = self._iterator.last_copy()
+            if copy is not None:
+                self._copies[self._next_index] = copy
+                self._copies.pop(self._next_index - _COPIES_KEPT, None)
         self._next_index += 1
         return True
+
+    def fresh(self, index: int) -> np.ndarray:
+        """Frame ``index`` (as ``self[index]``) in an array of its own that nothing else
+        holds, such as an observation must be: for a file read ahead, the copy its
+        decoding thread made (the first time this frame is asked for this way, while it
+        is among the last few read); else a copy made now."""
+        frame = self[index]
+        copy = self._copies.pop(index, None)
+        return frame.copy() if copy is None else copy
 
     def __len__(self) -> int:
         return self._length
@@ -362,9 +536,12 @@ class FrameStream:
             index += 1
 
     def close(self) -> None:
-        """Stop reading and release the capture (also done when the stream ends)."""
-        self._iterator.close()
-        self.reader.close()
+        """Stop reading and release the capture (also done when the stream ends; a
+        `ReadAhead`'s thread releases it itself)."""
+        if self._iterator is not None:
+            self._iterator.close()
+        if not isinstance(self._iterator, ReadAhead):
+            self.reader.close()
 
 
 def stream_video(
@@ -377,21 +554,23 @@ def stream_video(
     max_frames: int | None = None,
     max_seconds: float | None = None,
     buffer: int = 32,
+    read_ahead: int = 2,
 ) -> Clip:
     """A `Clip` over a file, camera or URL whose frames are a `FrameStream`: bounded
     memory, forward-only, no truth. Arguments as in `load_video`; ``max_frames`` bounds
     the run, as does ``max_seconds`` of footage at the source's fps (a live source
-    without either runs until it stops). Close it with
-    ``clip.frames.close()`` (the capture is also released when the stream ends)."""
+    without either runs until it stops); ``buffer`` and ``read_ahead`` as in
+    `FrameStream`. Close it with ``clip.frames.close()`` (the capture is also released
+    when the stream ends)."""
     ranges = tuple(joint_ranges) if joint_ranges is not None else (DEFAULT_JOINT_RANGE,) * n_links
-    reader = VideoReader(source, fps=fps).open()
+    # A file decoded ahead needs no decoding threads of FFmpeg's own (decode_threads).
+    reader = VideoReader(source, fps=fps,
+                         decode_threads=1 if read_ahead and not _is_live(source) else None
+                         ).open()
     if max_seconds is not None:
         limit = max(1, round(max_seconds * reader.fps))
         max_frames = limit if max_frames is None else min(max_frames, limit)
-    try:
-        frames = FrameStream(reader, buffer=buffer, max_frames=max_frames)
-    except BaseException:
-        reader.close()
-        raise
+    frames = FrameStream(reader, buffer=buffer, max_frames=max_frames,
+                         read_ahead=read_ahead)  # closes the reader if it fails
     meta = video_meta(reader, n_links, reference_direction, ranges)
     return Clip(frames=frames, fps=reader.fps, meta=meta)  # type: ignore[arg-type]

@@ -17,6 +17,7 @@ from gymnasium.utils import EzPickle
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import ClipSpec, get_scenario, robot_for_clip
 from imimic_gym.clips.types import Clip, depth_to_frame
+from imimic_gym.clips.video import FrameStream
 from imimic_gym.envs.arguments import check_arguments, check_sources
 from imimic_gym.estimators.types import Estimate, EstimatorContext
 from imimic_gym.kinematics import wrap_angle
@@ -244,6 +245,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         self._last_frame = len(self.clip) - 1
         self._frames = self._observed_frames(self.clip)
         self._renderer: OffscreenRenderer | None = None
+        self._robot_view_started: np.ndarray | None = None  # robot pose of prepare_render's view
 
     # The robot and its targets: what ImitateVideo3D-v0 replaces -----------------------
     def _robot_for_clip(self, clip: Clip, control: Control) -> RobotSpec:
@@ -328,8 +330,10 @@ class ImitateVideoEnv(gym.Env, EzPickle):
                         torque=np.zeros(truth.angles.shape[1]), trust=1.0)
 
     def _obs(self) -> dict[str, np.ndarray]:
+        frames = self._frames  # a stream's frame comes copied off this thread
         return {
-            "frame": self._frames[self.frame_index].copy(),
+            "frame": (frames.fresh(self.frame_index) if isinstance(frames, FrameStream)
+                      else frames[self.frame_index].copy()),
             "qpos": self.data.qpos.copy(),
             "qvel": self.data.qvel.clip(-MAX_OBSERVED_SPEED, MAX_OBSERVED_SPEED),
         }
@@ -436,22 +440,56 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         """(H, 2W, 3) uint8: the video frame (left) beside the robot (right), same size;
         H = ``render_height`` where that is fewer rows than the clip's (the frame area-
         averaged down, the robot drawn at that size: a 1080p preview costs more to draw
-        and encode than the footage costs to read)."""
+        and encode than the footage costs to read). A new array each call."""
         if self.render_mode is None:
             gym.logger.warn("render() called without render_mode='rgb_array'; returning None")
             return None
         frame = self._frames[self.frame_index or 0]
-        height, width = frame.shape[:2]
+        height, width = self._render_size()
+        # Both halves are written straight into the picture: no half is copied twice.
+        picture = np.empty((height, 2 * width, 3), dtype=np.uint8)
+        if height < frame.shape[0]:
+            cv2.resize(frame, (width, height), dst=picture[:, :width],
+                       interpolation=cv2.INTER_AREA)
+        else:
+            picture[:, :width] = frame
+        renderer = self._robot_renderer()
+        if self._robot_view_started is None or not np.array_equal(self._robot_view_started,
+                                                                  self._robot_pose()):
+            renderer.start(self.data, self.model.camera("robot").id)
+        self._robot_view_started = None
+        renderer.finish(out=picture[:, width:])
+        return picture
+
+    def prepare_render(self) -> None:
+        """Start drawing the robot view of the current state and return at once: the GL
+        driver draws it meanwhile (Mesa's software renderer on a thread of its own, while
+        the caller estimates the frame, say), and the next `render` only reads it back.
+        A `render` after the robot moved draws the view afresh. Nothing without
+        ``render_mode``."""
+        if self.render_mode is None:
+            return
+        self._robot_renderer().start(self.data, self.model.camera("robot").id)
+        self._robot_view_started = self._robot_pose()
+
+    def _render_size(self) -> tuple[int, int]:
+        """(rows, columns) of each half of `render`'s picture."""
+        height, width = self._frames.shape[1:3]
         if self.render_height is not None and self.render_height < height:
-            width = max(1, round(width * self.render_height / height))
-            height = self.render_height
-            frame = cv2.resize(frame, (width, height), interpolation=cv2.INTER_AREA)
+            return self.render_height, max(1, round(width * self.render_height / height))
+        return height, width
+
+    def _robot_renderer(self) -> OffscreenRenderer:
         if self._renderer is None:
-            self._renderer = OffscreenRenderer(self.model, height, width)
-        robot, _ = self._renderer.render(self.data, self.model.camera("robot").id)
-        return np.concatenate([frame, robot], axis=1)
+            self._renderer = OffscreenRenderer(self.model, *self._render_size())
+        return self._renderer
+
+    def _robot_pose(self) -> np.ndarray:
+        """Every body's position and orientation (world frame): what the robot view shows."""
+        return np.concatenate([self.data.xpos.ravel(), self.data.xquat.ravel()])
 
     def close(self) -> None:
+        self._robot_view_started = None
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None

@@ -15,14 +15,15 @@ _ARM = ("shoulder", "elbow", "wrist", "hand")
 _INK, _TORSO, _PAPER = (255, 220, 0), (150, 150, 160), (30, 30, 35)
 
 
-def draw_side_view(picture: np.ndarray, pose: ArmPose, size: int | None = None
-                   ) -> np.ndarray:
+def draw_side_view(picture: np.ndarray, pose: ArmPose, size: int | None = None,
+                   in_place: bool = False) -> np.ndarray:
     """``picture`` (H, W, 3) uint8 RGB with a square inset in its bottom-left corner: the
     arm seen from the person's side, in the arm frame's (forward, up) plane: forward to the
     inset's right, up to its top, the shoulder at its middle, the torso as a grey line
     down from it; a yellow line for the upper arm, forearm and hand. ``size``: the inset's
-    side in pixels (default: a third of the picture's height). A copy is returned."""
-    out = picture.copy()
+    side in pixels (default: a third of the picture's height). A copy is returned, or
+    ``picture`` itself drawn on with ``in_place``."""
+    out = picture if in_place else picture.copy()
     height = out.shape[0]
     side = size or max(48, height // 3)
     inset = np.full((side, side, 3), _PAPER, dtype=np.uint8)

@@ -146,7 +146,8 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
         picture = draw_estimate(picture, self.last_estimate, self._parents,
                                 scale=picture.shape[0] / self._frame_height,
                                 caption=caption() if callable(caption) else None)
-        draw = getattr(self.estimator, "draw", None)  # and draw more (a 3-D reading)
+        # And draw more (a 3-D reading), on draw_estimate's copy, which is this wrapper's.
+        draw = getattr(self.estimator, "draw", None)
         return draw(picture) if callable(draw) else picture
 
     def observation(self, observation: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

@@ -62,12 +62,12 @@ class RetargetedEstimator:
         return f"{pose.side} arm, {seen}  eta {pose.trust:.2f}"
 
     def draw(self, picture: np.ndarray) -> np.ndarray:
-        """``picture`` with this frame's reading seen from the person's side
-        (`spatial.draw.draw_side_view`): where the arm goes toward or away from the
-        camera; unchanged where the arm is not seen."""
+        """``picture`` (the caller's own, drawn on in place and returned) with this frame's
+        reading seen from the person's side (`spatial.draw.draw_side_view`): where the arm
+        goes toward or away from the camera; unchanged where the arm is not seen."""
         if self.last_pose is None or self.last_pose.trust == 0.0:
             return picture
-        return draw_side_view(picture, self.last_pose)
+        return draw_side_view(picture, self.last_pose, in_place=True)
 
     def update(self, frame: np.ndarray, depth: np.ndarray | None = None) -> Estimate:
         """The joint targets for the next (H, W, 3) uint8 RGB ``frame`` (``depth``: its

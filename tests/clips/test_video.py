@@ -2,6 +2,7 @@
 
 import json
 import math
+import threading
 
 import cv2
 import gymnasium as gym
@@ -12,6 +13,7 @@ from imimic_gym.clips.annotations import AnnotationError, truth_from_coco
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
 from imimic_gym.clips.video import (
+    ReadAhead,
     StreamEndedError,
     VideoFormatError,
     VideoOpenError,
@@ -78,6 +80,145 @@ def test_reading_stopped_early_releases_the_capture(servo_mp4) -> None:
     assert reader.capture is not None
     frames.close()
     assert reader.capture is None
+
+
+def decoding_threads(source) -> list[threading.Thread]:
+    """`ReadAhead` threads still running on ``source`` (each is named "decoding <source>")."""
+    return [t for t in threading.enumerate() if t.name == f"decoding {source}"]
+
+
+def test_read_ahead_gives_a_plain_decodes_frames_in_order(servo_mp4) -> None:
+    plain = list(VideoReader(servo_mp4))
+    reader = VideoReader(servo_mp4)
+    ahead = list(ReadAhead(reader, depth=2))
+    assert len(ahead) == len(plain) == 90
+    for mine, theirs in zip(ahead, plain, strict=True):
+        np.testing.assert_array_equal(mine, theirs)
+    assert reader.frames_read == 90 and reader.capture is None  # released by its thread
+    with_copies = ReadAhead(VideoReader(servo_mp4), depth=2, copies=True)
+    for index in range(3):
+        frame = next(with_copies)
+        copy = with_copies.last_copy()
+        np.testing.assert_array_equal(copy, plain[index])
+        assert not np.shares_memory(copy, frame) and with_copies.last_copy() is None
+    with_copies.close()
+    # The streamed clip, indexed as the env does, holds the same frames.
+    clip = stream_video(servo_mp4)
+    for index in (0, 1, 2, 45, 89):
+        np.testing.assert_array_equal(clip.frames[index], plain[index])
+    assert clip.frames.reader.capture is None and not decoding_threads(servo_mp4)
+
+
+def test_one_decoding_thread_gives_the_same_frames(servo_mp4) -> None:
+    default = list(VideoReader(servo_mp4))
+    alone = VideoReader(servo_mp4, decode_threads=1)
+    for mine, theirs in zip(alone, default, strict=True):
+        np.testing.assert_array_equal(mine, theirs)
+    with pytest.raises(ValueError, match="decode_threads must be at least 1, got 0"):
+        VideoReader(servo_mp4, decode_threads=0)
+
+
+def test_read_ahead_stops_at_the_length_asked_for(servo_mp4) -> None:
+    clip = stream_video(servo_mp4, max_frames=5)
+    assert len(clip) == 5 and clip.frames.cut_short
+    assert sum(1 for _ in clip.frames) == 5
+    # Not one frame decoded past the end asked for (what a plain read would do).
+    assert clip.frames.reader.frames_read == 5 and clip.frames.reader.capture is None
+
+
+def test_closing_a_read_ahead_stops_its_thread_and_releases_the_capture(servo_mp4) -> None:
+    reader = VideoReader(servo_mp4)
+    frames = ReadAhead(reader, depth=2, join_timeout_s=30.0)
+    first = [next(frames) for _ in range(3)]
+    np.testing.assert_array_equal(first[2], list(VideoReader(servo_mp4))[2])
+    frames.close()
+    assert not frames.thread.is_alive() and reader.capture is None
+    assert next(frames, None) is None  # a closed read-ahead gives nothing more
+    # A stream closed mid-run, as mimic's Ctrl-C closes it.
+    clip = stream_video(servo_mp4)
+    clip.frames[10]
+    clip.frames.close()
+    assert clip.frames.reader.capture is None and not decoding_threads(servo_mp4)
+
+
+def test_a_read_ahead_dropped_unclosed_stops_once_collected(servo_mp4) -> None:
+    import gc
+
+    reader = VideoReader(servo_mp4)
+    frames = ReadAhead(reader, depth=2)
+    next(frames)
+    thread = frames.thread
+    del frames
+    gc.collect()
+    thread.join(timeout=30)
+    assert not thread.is_alive() and reader.capture is None
+
+
+def test_a_decoding_error_comes_after_the_frames_before_it_and_stops_the_thread(
+        tmp_path) -> None:
+    for i in range(6):
+        size = (30, 40) if i < 4 else (50, 60)
+        cv2.imwrite(str(tmp_path / f"frame_{i:03d}.png"), np.full((*size, 3), 40 * i, np.uint8))
+    reader = VideoReader(tmp_path / "frame_%03d.png", fps=25.0)
+    frames = ReadAhead(reader, depth=2, join_timeout_s=30.0)
+    assert [int(next(frames)[0, 0, 0]) for _ in range(4)] == [0, 40, 80, 120]
+    with pytest.raises(VideoFormatError,
+                       match=r"frame_%03d\.png: frame 4 is 60x50 but the video started at 40x30"):
+        next(frames)
+    frames.thread.join(timeout=30)
+    assert not frames.thread.is_alive() and reader.capture is None
+    frames.close()  # closing after the end is harmless
+
+
+def test_a_file_without_a_frame_fails_in_stream_video_with_no_thread_left(tmp_path) -> None:
+    path = tmp_path / "zero.avi"
+    cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, (64, 48)).release()
+    with pytest.raises(VideoFormatError, match=r"zero\.avi has no frames that can be decoded"):
+        stream_video(path)
+    assert not decoding_threads(path)
+    (tmp_path / "notes.mp4").write_text("not a video " * 50)
+    with pytest.raises(VideoOpenError, match=r"notes\.mp4: OpenCV cannot decode it"):
+        stream_video(tmp_path / "notes.mp4")
+    assert not decoding_threads(tmp_path / "notes.mp4")
+
+
+def test_fresh_frames_are_the_frames_in_arrays_of_their_own(servo_mp4) -> None:
+    plain = list(VideoReader(servo_mp4))
+    for read_ahead in (2, 0):  # copied on the decoding thread, or when asked for
+        stream = stream_video(servo_mp4, read_ahead=read_ahead).frames
+        for index in range(6):
+            frame = stream.fresh(index)
+            np.testing.assert_array_equal(frame, plain[index])
+            assert not np.shares_memory(frame, stream[index])
+            again = stream.fresh(index)  # asked twice: another array of its own
+            np.testing.assert_array_equal(again, plain[index])
+            assert not np.shares_memory(again, frame)
+        stream.close()
+
+
+def test_a_streamed_envs_observation_is_its_own_array(servo_mp4) -> None:
+    plain = list(VideoReader(servo_mp4))
+    clip = stream_video(servo_mp4, max_frames=5)
+    env = gym.make("ImitateVideo-v0", clip=clip)
+    seen = [env.reset(seed=0)[0]["frame"]]
+    for _ in range(3):
+        seen.append(env.step(np.zeros(1, np.float32))[0]["frame"])
+    for index, frame in enumerate(seen):
+        np.testing.assert_array_equal(frame, plain[index])
+        assert not np.shares_memory(frame, clip.frames[index])
+    seen[1][:] = 0  # the caller's to change: the stream's frame stays as decoded
+    np.testing.assert_array_equal(clip.frames[1], plain[1])
+    env.close()
+    clip.frames.close()
+
+
+def test_a_live_source_is_read_when_asked_for(servo_mp4) -> None:
+    # A URL, like a camera: each frame is the newest the source has, none decoded ahead.
+    clip = stream_video(f"file://{servo_mp4}")
+    assert clip.meta["source"] == "camera"
+    clip.frames[3]
+    assert clip.frames.reader.frames_read == 4 and not decoding_threads(f"file://{servo_mp4}")
+    clip.frames.close()
 
 
 def test_missing_empty_and_undecodable_files_are_named(tmp_path) -> None:

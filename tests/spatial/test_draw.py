@@ -32,3 +32,11 @@ def test_a_raised_arm_points_up() -> None:
                            ArmPose("right", points, np.ones(7), np.zeros((7, 2))), size=80)
     ys, xs = np.nonzero(yellow(drawn[160:, :80]))
     assert ys.min() < 8 and abs(xs.mean() - 40) < 4
+
+
+def test_in_place_draws_the_same_inset_on_the_picture_itself() -> None:
+    arm = ArmPose("right", REACH, np.ones(7), np.zeros((7, 2)))
+    copy = draw_side_view(np.full((240, 320, 3), 9, np.uint8), arm, size=80)
+    picture = np.full((240, 320, 3), 9, np.uint8)
+    assert draw_side_view(picture, arm, size=80, in_place=True) is picture
+    np.testing.assert_array_equal(picture, copy)
