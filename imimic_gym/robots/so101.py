@@ -64,8 +64,8 @@ _MJCF = """<mujoco model="so101">
   <worldbody>
     <light pos="0.3 0.4 1.2" dir="-0.2 -0.3 -1"/>
     <!-- Thin boxes, not planes: the software renderer draws planes as many lit quads. -->
-    <geom name="floor" type="box" pos="0 0 -0.005" size="0.6 0.6 0.005" rgba="0.62 0.6 0.58 1"/>
-    <geom name="backdrop" type="box" pos="-0.35 0 0.5" size="0.005 1.2 0.6" rgba="0.78 0.8 0.84 1"/>
+    <geom name="floor" type="box" pos="0 0 -0.005" size="1.5 1.5 0.005" rgba="0.62 0.6 0.58 1"/>
+    <geom name="backdrop" type="box" pos="-0.35 0 0.5" size="0.005 1.5 0.6" rgba="0.78 0.8 0.84 1"/>
     <!-- In front of the robot, facing it: the robot's left is the picture's right, as a
          person facing the camera shows their left arm on the right (the mirror mapping). -->
     <camera name="robot" pos="0.95 0 0.36" xyaxes="0 1 0 -0.165 0 0.986" fovy="52"/>
