@@ -63,6 +63,10 @@ class ArmPose:
         pixels: (7, 2) float64 image pixels (x, y) the points project to or came from.
         trust: in [0, 1]; 0 where the arm was not seen and ``points`` are the last seen
             pose, held (a robot copying it holds too).
+        flexion: rad in [0, pi], the elbow's flexion where an estimate's is not the angle
+            between its upper arm and forearm (a lift unsure which way the forearm
+            tilts gives the flexion's expectation over the tilts, while its points lie
+            between them); None: that angle.
     """
 
     side: str
@@ -70,6 +74,7 @@ class ArmPose:
     confidence: np.ndarray
     pixels: np.ndarray
     trust: float = 1.0
+    flexion: float | None = None
 
     def __post_init__(self) -> None:
         k = len(ARM_POINTS)
@@ -83,6 +88,9 @@ class ArmPose:
             object.__setattr__(self, name, value)
         if not 0.0 <= self.trust <= 1.0:
             raise ValueError(f"ArmPose.trust must be in [0, 1], got {self.trust!r}")
+        if self.flexion is not None and not 0.0 <= self.flexion <= math.pi:
+            raise ValueError(f"ArmPose.flexion must be None or in [0, pi] rad, got "
+                             f"{self.flexion!r}")
 
     def point(self, name: str) -> np.ndarray:
         """(3,) camera-frame metres of ``name`` (one of `ARM_POINTS`)."""
@@ -105,7 +113,10 @@ class ArmPose:
 
     @property
     def elbow_flexion(self) -> float:
-        """Rad in [0, pi]: 0 with the arm straight."""
+        """Rad in [0, pi]: 0 with the arm straight (``flexion`` where given, else the
+        angle between `upper_arm` and `forearm`)."""
+        if self.flexion is not None:
+            return self.flexion
         return float(angle_between(self.upper_arm, self.forearm))
 
     @property
@@ -148,4 +159,5 @@ class ArmPose:
 
     def held(self) -> ArmPose:
         """This pose with trust 0: a frame that did not see the arm holds the last one."""
-        return ArmPose(self.side, self.points, self.confidence, self.pixels, trust=0.0)
+        return ArmPose(self.side, self.points, self.confidence, self.pixels, trust=0.0,
+                       flexion=self.flexion)

@@ -38,7 +38,8 @@ from imimic_gym.spatial.smoothing import OneEuroFilter, OneEuroSettings
 __all__ = ["DEFAULT_DEPTH", "FLIP_PATIENCE", "KEYPOINT_NOISE", "LENGTH_QUANTILE", "LIMB_RADIUS",
            "MAX_TURN_RATE", "ONE_EURO", "SHARE_FILTER", "SHARE_GRID", "SIGN_MARGIN",
            "SIGN_THRESHOLD", "ArmLifter", "BoneLengthEstimator", "BoneLengths", "ShareFilter",
-           "from_depth", "from_world_landmarks", "lift_arm", "neutral_pose", "out_of_plane",
+           "expected_flexion", "from_depth", "from_world_landmarks", "lift_arm", "neutral_pose",
+           "out_of_plane",
            "predict_belief", "shoulder_depth", "uniform_belief"]
 
 _S, _E, _W, _H, _OS, _HIP, _OHIP = range(len(ARM_POINTS))
@@ -214,9 +215,15 @@ class ShareFilter:
     split between the two tilts it only as far as one side outweighs the other (so a
     reading that tips the split does not swing the bone from one tilt to its mirror).
 
+    The elbow's flexion (`ArmPose.flexion`) is not the angle between those bones where
+    a bone's expected |share| is ``flexion_over_tilts`` or more: there it is averaged over
+    that bone's two tilts (`expected_flexion`). A forearm pointing at the camera whose
+    sign is unsure lies near the image plane, but its flexion stays bent.
+
     All attributes are shares of the bone's length (``turn_rate`` per second), >= 0;
     ``keypoint_noise`` and ``depth_noise`` > 0; ``outlier`` and ``jump`` in [0, 1);
-    ``certainty_power`` >= 0 (0: the plain posterior mean).
+    ``certainty_power`` >= 0 (0: the plain posterior mean); ``flexion_over_tilts`` over 1:
+    the flexion is always the bones' angle.
     """
 
     keypoint_noise: float = 0.06
@@ -226,12 +233,13 @@ class ShareFilter:
     turn_rate: float = 8.0
     jump: float = 0.01
     certainty_power: float = 1.0
+    flexion_over_tilts: float = 0.6
 
     def __post_init__(self) -> None:
         for name in ("keypoint_noise", "depth_noise"):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
                 raise ValueError(f"ShareFilter.{name} must be > 0, got {getattr(self, name)!r}")
-        for name in ("depth_gain", "turn_rate", "certainty_power"):
+        for name in ("depth_gain", "turn_rate", "certainty_power", "flexion_over_tilts"):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
                 raise ValueError(f"ShareFilter.{name} must be >= 0, got "
                                  f"{getattr(self, name)!r}")
@@ -275,13 +283,65 @@ def _filter_bone(start: np.ndarray, ray: np.ndarray, length: float,
     posterior = belief * np.exp(log_like - log_like.max())
     total = float(posterior.sum())
     posterior = posterior / total if total > 0.0 and math.isfinite(total) else uniform_belief()
+    share = _output_share(posterior, settings)
+    t = max(middle + share * length / root_a, _DEPTH_RANGE[0])
+    return _Bone(t * ray, lower_bound, missed), posterior
+
+
+def _output_share(posterior: np.ndarray, settings: ShareFilter) -> float:
+    """A bone's share as `ShareFilter` outputs it: the posterior mean times the sign's
+    certainty to ``certainty_power``."""
     share = float(posterior @ SHARE_GRID)
     if settings.certainty_power > 0.0:
         certainty = abs(float(posterior[SHARE_GRID > 0.0].sum())
                         - float(posterior[SHARE_GRID < 0.0].sum()))
         share *= certainty ** settings.certainty_power
-    t = max(middle + share * length / root_a, _DEPTH_RANGE[0])
-    return _Bone(t * ray, lower_bound, missed), posterior
+    return share
+
+
+def _tilts(posterior: np.ndarray, settings: ShareFilter) -> tuple[np.ndarray, np.ndarray]:
+    """(n,) shares and (n,) weights summing to 1 that the elbow's flexion is averaged
+    over for one bone: its two tilts (the posterior's mean on each side of the image
+    plane, weighed by that side's probability) where its expected |share| is at least
+    ``settings.flexion_over_tilts``, else its output share alone."""
+    if float(posterior @ np.abs(SHARE_GRID)) < settings.flexion_over_tilts:
+        return np.array([_output_share(posterior, settings)]), np.ones(1)
+    shares, weights = [], []
+    for side in (SHARE_GRID > 0.0, SHARE_GRID < 0.0):
+        mass = float(posterior[side].sum())
+        if mass > 0.0:
+            shares.append(float(posterior[side] @ SHARE_GRID[side]) / mass)
+            weights.append(mass)
+    if not weights:
+        return np.zeros(1), np.ones(1)
+    return np.array(shares), np.array(weights) / sum(weights)
+
+
+def expected_flexion(shoulder: np.ndarray, elbow_ray: np.ndarray, wrist_ray: np.ndarray,
+                     lengths: tuple[float, float], beliefs: tuple[np.ndarray, np.ndarray],
+                     settings: ShareFilter) -> float:
+    """The elbow's flexion (rad, in [0, pi]) from the upper arm's and the forearm's
+    beliefs (posteriors on `SHARE_GRID`, taken as independent), averaged over each
+    bone's tilts (`_tilts`): the elbow on ``elbow_ray`` at the upper arm's share from
+    ``shoulder`` ((3,) metres, camera frame), the wrist on ``wrist_ray`` at the forearm's
+    from that elbow (rays (3,) with z = 1; ``lengths`` (upper arm, forearm) metres).
+    Under an upper arm in the image plane a forearm's two tilts bend the elbow alike, so
+    a forearm whose sign is unsure keeps its flexion, which laid in the plane (its
+    output share) it would not."""
+    upper_shares, upper_weights = _tilts(beliefs[0], settings)
+    fore_shares, fore_weights = _tilts(beliefs[1], settings)
+
+    def ends(starts: np.ndarray, ray: np.ndarray, length: float, shares: np.ndarray
+             ) -> np.ndarray:
+        a = float(ray @ ray)
+        middle = starts @ ray / a  # (n,) t of the ray's points nearest the starts
+        t = middle[:, None] + shares[None, :] * length / math.sqrt(a)
+        return np.maximum(t, _DEPTH_RANGE[0])[..., None] * ray  # (n, shares, 3)
+
+    elbows = ends(shoulder[None], elbow_ray, lengths[0], upper_shares)[0]
+    wrists = ends(elbows, wrist_ray, lengths[1], fore_shares)
+    angles = angle_between((elbows - shoulder)[:, None, :], wrists - elbows[:, None, :])
+    return float(np.clip(upper_weights @ angles @ fore_weights, 0.0, math.pi))
 
 
 def predict_belief(posterior: np.ndarray, settings: ShareFilter, dt: float) -> np.ndarray:
@@ -420,6 +480,7 @@ def _lift(side: str, pixels: np.ndarray, confidence: np.ndarray, depth: np.ndarr
         return bone
 
     solve(_S, _OS, lengths.shoulder_width)
+    flexion = None
     if beliefs is not None and share_filter is not None:
         bones = []
         for k, (start, end, name) in enumerate(_ARM_BONES):
@@ -427,6 +488,10 @@ def _lift(side: str, pixels: np.ndarray, confidence: np.ndarray, depth: np.ndarr
                                             model_delta(start, end), beliefs[k], share_filter)
             points[end] = bone.end
             bones.append(bone)
+        if share_filter.flexion_over_tilts <= 1.0:
+            flexion = expected_flexion(points[_S], rays[_E], rays[_W],
+                                       (lengths.upper_arm, lengths.forearm),
+                                       (beliefs[0], beliefs[1]), share_filter)
     else:
         bones = [solve(start, end, getattr(lengths, name), keypoint_noise, float(turn))
                  for (start, end, name), turn in zip(_ARM_BONES, max_turn, strict=True)]
@@ -435,7 +500,7 @@ def _lift(side: str, pixels: np.ndarray, confidence: np.ndarray, depth: np.ndarr
     solve(_S, _HIP, side_to_hip)
     solve(_OS, _OHIP, side_to_hip)
     trust = float(confidence[[_S, _E, _W]].min())
-    return (ArmPose(side, points, confidence, pixels, trust=trust),
+    return (ArmPose(side, points, confidence, pixels, trust=trust, flexion=flexion),
             np.array([bone.lower_bound for bone in bones]),
             np.array([bone.overruled for bone in bones]))
 
@@ -584,7 +649,13 @@ class ArmLifter:
         self.estimators[side].observe(bounds)
         points = (self.filter.filter(pose.points, dt) if self.smoothing is not None
                   else pose.points)
-        pose = ArmPose(side, points, pose.confidence, pixels, pose.trust)
+        smoothed_pose = ArmPose(side, points, pose.confidence, pixels, pose.trust)
+        flexion = None
+        if pose.flexion is not None:  # the smoothed bones' angle, offset as the lift's was
+            bent = float(angle_between(pose.upper_arm, pose.forearm))
+            flexion = float(np.clip(smoothed_pose.elbow_flexion + pose.flexion - bent,
+                                    0.0, math.pi))
+        pose = replace(smoothed_pose, flexion=flexion)
         self.previous, self.time = pose, now
         return pose
 

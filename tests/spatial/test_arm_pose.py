@@ -138,6 +138,18 @@ def test_held_keeps_the_pose_with_no_trust() -> None:
     np.testing.assert_array_equal(held.pixels, arm.pixels)
 
 
+def test_a_given_flexion_is_the_elbows_and_is_held() -> None:
+    """A lift's own flexion (where it is not the bones' angle, pi / 2 here) is what
+    `elbow_flexion` gives, held too; outside [0, pi] it is refused by name."""
+    arm = ArmPose("right", RIGHT, np.ones(7), np.zeros((7, 2)), flexion=1.2)
+    assert arm.elbow_flexion == 1.2
+    assert arm.held().elbow_flexion == 1.2
+    assert pose("right", RIGHT).flexion is None
+    for bad in (-0.1, 3.2, math.nan):
+        with pytest.raises(ValueError, match=r"ArmPose\.flexion must be None or in \[0, pi\]"):
+            ArmPose("right", RIGHT, np.ones(7), np.zeros((7, 2)), flexion=bad)
+
+
 def test_a_bad_side_shape_or_trust_is_refused_by_name() -> None:
     with pytest.raises(ValueError, match=r"ArmPose\.side must be 'left' or 'right', got 'up'"):
         ArmPose("up", RIGHT, np.ones(7), np.zeros((7, 2)))
