@@ -296,7 +296,10 @@ class PoseModel:
             raise RuntimeError(f"PoseModel: asked for a frame at {time_s!r} s that is not the "
                                f"next one submitted (at {reading.time_s!r} s): frames "
                                f"submitted ahead are called for in order, the same arrays")
-        reading.done.wait()
+        while not reading.done.wait(timeout=0.1):
+            if self.thread is None or not self.thread.is_alive():
+                raise RuntimeError("PoseModel: the thread reading frames ahead has stopped "
+                                   "before reading this one")
         self._submitted.popleft()
         if reading.error is not None:
             raise reading.error
