@@ -147,13 +147,13 @@ def _solution() -> Any:
 
 
 class _Reading:
-    """One frame handed to `PoseModel.submit`: read on the model's thread, its result (or
-    error) kept for the call that asks for it."""
+    """One frame handed to `PoseModel.submit` (``frame``, and ``read()`` of its reading):
+    read on the model's thread, its result (or error) kept for the call that asks for it."""
 
     def __init__(self, frame: np.ndarray, time_s: float | None,
-                 read: Callable[[np.ndarray, float | None], BodyKeypoints | None]) -> None:
+                 read: Callable[[], BodyKeypoints | None]) -> None:
         self.frame, self.time_s = frame, time_s
-        self._read: Callable[[np.ndarray, float | None], BodyKeypoints | None] | None = read
+        self._read: Callable[[], BodyKeypoints | None] | None = read
         self.done = threading.Event()
         self.result: BodyKeypoints | None = None
         self.error: BaseException | None = None
@@ -162,7 +162,7 @@ class _Reading:
         read, self._read = self._read, None  # holds the model only while it waits or runs
         try:
             if read is not None:
-                self.result = read(self.frame, self.time_s)
+                self.result = read()
         except BaseException as error:  # handed to the caller that asks for this frame
             self.error = error
         finally:
@@ -267,9 +267,12 @@ class PoseModel:
         be read on the model's thread while the caller does other work; the call for it
         (``model(frame, time_s)``, the same array and time) then returns its result, or
         raises its error. ``frame`` must not change until then. The first frame of a
-        video (the graph starting) is read here, on the caller's thread."""
+        video (the graph starting) is read here, on the caller's thread; so is each
+        frame's shrinking to ``max_side``, which leaves the model's thread only the model."""
         _check_frame(frame)
-        reading = _Reading(frame, time_s, self._read)
+        small = self._shrink(frame)
+        reading = _Reading(frame, time_s,
+                           lambda: self._read(small, frame.shape[:2], time_s))
         self._submitted.append(reading)
         if self._graph is None:
             reading.run()
@@ -290,7 +293,7 @@ class PoseModel:
         them (the same array and time): RuntimeError otherwise."""
         _check_frame(frame)
         if not self._submitted:
-            return self._read(frame, time_s)
+            return self._read(self._shrink(frame), frame.shape[:2], time_s)
         reading = self._submitted[0]
         if reading.frame is not frame or reading.time_s != time_s:
             raise RuntimeError(f"PoseModel: asked for a frame at {time_s!r} s that is not the "
@@ -305,8 +308,20 @@ class PoseModel:
             raise reading.error
         return reading.result
 
-    def _read(self, frame: np.ndarray, time_s: float | None) -> BodyKeypoints | None:
-        """`__call__`'s reading of a checked frame, on whichever thread reads it."""
+    def _shrink(self, frame: np.ndarray) -> np.ndarray:
+        """A checked frame area-averaged down to ``max_side`` on its longer side (as it
+        is if no longer), in contiguous memory: what the graph reads."""
+        h, w = frame.shape[:2]
+        scale = max(h, w) / self.max_side
+        if scale > 1:
+            frame = cv2.resize(frame, (max(1, round(w / scale)), max(1, round(h / scale))),
+                               interpolation=cv2.INTER_AREA)
+        return np.ascontiguousarray(frame)
+
+    def _read(self, small: np.ndarray, size: tuple[int, ...], time_s: float | None
+              ) -> BodyKeypoints | None:
+        """`__call__`'s reading of a frame of ``size`` (rows, columns) shrunk to ``small``
+        (`_shrink`), on whichever thread reads it."""
         starting = self._graph is None
         if starting:
             with native_logs_quiet():
@@ -323,17 +338,13 @@ class PoseModel:
                 raise ValueError(f"PoseModel: frame times must be at least 0 s and increase "
                                  f"from call to call, got {time_s!r} s{after}")
             self._graph._simulated_timestamp = round(time_s * 1e6)
-        h, w = frame.shape[:2]
-        scale = max(h, w) / self.max_side
-        if scale > 1:
-            frame = cv2.resize(frame, (max(1, round(w / scale)), max(1, round(h / scale))),
-                               interpolation=cv2.INTER_AREA)
+        h, w = size[:2]
         with warnings.catch_warnings():
             # protobuf 4.25 warns of an API MediaPipe 0.10.14 calls on every frame.
             warnings.filterwarnings("ignore", message="SymbolDatabase.GetPrototype",
                                     category=UserWarning)
             with native_logs_quiet() if starting else contextlib.nullcontext():
-                result = self._graph.process(np.ascontiguousarray(frame))
+                result = self._graph.process(small)
         if result.pose_landmarks is None:
             return None
         marks = result.pose_landmarks.landmark
