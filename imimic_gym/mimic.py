@@ -21,10 +21,13 @@ Latency is the wall time from asking the source for a frame to the joint command
 ready (reading, decoding, estimating, controlling; not the video rendering), so on a
 live camera it is how far the robot's command trails the picture, less the camera's own
 delay. A file is run for throughput instead: its frames are decoded ahead on a thread
-(`clips.video.ReadAhead`, not counted) and the robot view of each state starts drawing
-before the estimator reads the frame (`wrappers.RenderAhead`, counted), so that the two
-cores share the work; a camera's frame is read when asked for and nothing is drawn
-before the command.
+(`clips.video.ReadAhead`, not counted), the robot view of each state starts drawing
+before the estimator reads the frame (`wrappers.RenderAhead`, counted), and an estimator
+with a ``prefetch`` hook (the pose estimators) reads each frame on a thread of its own
+while the frame before is lifted, controlled, drawn and written (``estimate_ahead``,
+`wrappers.EstimatorObservation`: only the wait for what is left of it counted), so that
+the two cores share the work; a camera's frame is read when asked for, nothing is drawn
+before the command and nothing is estimated ahead.
 """
 
 from __future__ import annotations
@@ -358,10 +361,11 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
                  if robot is None else
                  gym.make("ImitateVideo3D-v0", clip=clip, robot=robot, mapping=mapping,
                           render_mode="rgb_array", render_height=preview_height))
-        # A file's robot view draws while the estimator reads the frame (RenderAhead); a
-        # camera's command is not held up by it.
+        # A file's robot view draws while the estimator reads the frame (RenderAhead), and
+        # the estimator reads the next frame while this one is worked on; a camera's
+        # command is not held up by either, and its next frame is not known.
         env = RegistryObservation(scene if live else RenderAhead(scene), estimator,
-                                  keep_frame=False, **params)
+                                  keep_frame=False, estimate_ahead=not live, **params)
     except BaseException:  # release the camera or file before the error goes up
         if hasattr(clip.frames, "close"):
             clip.frames.close()

@@ -19,8 +19,9 @@ from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
 from imimic_gym.clips.video import VideoFormatError, stream_video
 from imimic_gym.clips.video_writer import write_video
+from imimic_gym.estimators.pose.planar import human_joint_ranges
 from imimic_gym.metrics import angle_rmse_deg
-from imimic_gym.mimic import run_mimic
+from imimic_gym.mimic import MimicLog, run_mimic
 from imimic_gym.servo import ServoBridge
 from tests.processes import poll_until, stop
 
@@ -407,13 +408,14 @@ def test_a_frame_whose_drawing_ctrl_c_stops_is_in_no_output(servo_mp4, tmp_path)
     assert len(log.time) == len(read_csv(tmp_path / "mimic.csv")) == 6
 
 
+@pytest.mark.parametrize("estimator", ["don", "pose"])  # pose: a model thread reads ahead
 def test_ctrl_c_stops_the_command_with_130_and_as_many_frames_in_video_as_in_json(
-        servo_mp4, tmp_path) -> None:
+        servo_mp4, tmp_path, estimator: str) -> None:
     """A real SIGINT to `imimic mimic --video` mid-run (played at its own speed, 3 s):
     exit code 130 as the other commands, and the video holds the frames the JSON counts."""
     out = tmp_path / "out"
     run = subprocess.Popen([sys.executable, "-m", "imimic_gym.cli", "mimic", "--video",
-                            str(servo_mp4), "--estimator", "don", "--realtime", "--out",
+                            str(servo_mp4), "--estimator", estimator, "--realtime", "--out",
                             str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                            text=True, env={**os.environ, "MUJOCO_GL": "egl"})
     try:
@@ -432,3 +434,87 @@ def test_ctrl_c_stops_the_command_with_130_and_as_many_frames_in_video_as_in_jso
     finally:
         video.release()
     assert len(read_csv(out / "mimic.csv")) == summary["frames"]
+
+
+@pytest.fixture(scope="module")
+def person_mp4(tmp_path_factory: pytest.TempPathFactory):
+    """The rendered person (default scenario, seed 5, 20 frames) as an mp4."""
+    clip = load_clip(get_scenario("default", seed=5, n_frames=20), progress=False)
+    path = tmp_path_factory.mktemp("person") / "person.mp4"
+    write_video(path, clip.frames, clip.fps)
+    return path
+
+
+def without_latency(path) -> list[list[str]]:
+    with open(path, newline="") as table:
+        return [row[:-1] for row in csv.reader(table)]  # latency_ms: the last column
+
+
+def mimic_stack(path, out, robot: str | None, log: MimicLog, ahead: bool, threads: list,
+                interrupt_at: int | None = None) -> None:
+    """`run_mimic`'s stack on a file, with or without estimating ahead (``ahead``: the pose
+    model reads each next frame on its thread; else each frame when it is observed):
+    mimic.csv and mimic.mp4 into ``out``. ``interrupt_at``: the render that Ctrl-C stops
+    (`InterruptedRender`). ``threads`` gets the pose model's thread, if it started one."""
+    from imimic_gym.controllers import EstimateTarget, PDController
+    from imimic_gym.envs.imitate_video import imitate_env
+    from imimic_gym.mimic import csv_header, mimic_frames, spatial_csv_header, write_behind
+    from imimic_gym.wrappers import RegistryObservation, RenderAhead
+
+    clip = stream_video(path, joint_ranges=human_joint_ranges(1))
+    scene = (gym.make("ImitateVideo-v0", clip=clip, render_mode="rgb_array") if robot is None
+             else gym.make("ImitateVideo3D-v0", clip=clip, robot=robot,
+                           render_mode="rgb_array"))
+    below = (RenderAhead(scene) if interrupt_at is None
+             else InterruptedRender(RenderAhead(scene), at=interrupt_at))
+    env = RegistryObservation(below, "pose" if robot is None else "pose3d", keep_frame=False,
+                              estimate_ahead=ahead)
+    model = env.estimator.model if robot is None else env.estimator.spatial.model
+    spec = None if robot is None else imitate_env(env).arm
+    out.mkdir()
+    try:
+        with (out / "mimic.csv").open("w", newline="", buffering=1) as table:
+            rows = csv.writer(table)
+            rows.writerow(csv_header(1) if spec is None else spatial_csv_header(spec.joint_names))
+            controller = PDController(env, EstimateTarget(env))
+            write_behind(out / "mimic.mp4", mimic_frames(env, controller, log, rows, robot=spec),
+                         clip.fps)
+    finally:
+        threads.extend([model.thread] if model.thread is not None else [])
+        env.close()
+        clip.frames.close()
+
+
+@pytest.mark.parametrize("robot", [None, "so101"])
+def test_estimating_ahead_leaves_every_output_as_it_was(person_mp4, tmp_path,
+                                                        robot: str | None) -> None:
+    """`run_mimic` on a file reads each next frame with the pose model while the frame
+    before is worked on: mimic.csv (but for its latency) and mimic.mp4 are byte for byte
+    those of the same stack reading each frame when it comes."""
+    plain, ahead = tmp_path / "plain", tmp_path / "ahead"
+    threads: list = []
+    mimic_stack(person_mp4, plain, robot, MimicLog(fps=30.0), ahead=False, threads=threads)
+    assert threads == []  # the model read each frame on the caller's thread
+    summary = run_mimic(stream_video(person_mp4, joint_ranges=human_joint_ranges(1)), ahead,
+                        estimator="pose" if robot is None else "pose3d", progress=False,
+                        robot=robot)
+    assert summary["frames"] == 20 and summary["frames_without_reading"] < 10
+    assert without_latency(ahead / "mimic.csv") == without_latency(plain / "mimic.csv")
+    assert (ahead / "mimic.mp4").read_bytes() == (plain / "mimic.mp4").read_bytes()
+
+
+def test_ctrl_c_while_estimating_ahead_keeps_the_finished_frames_and_stops_the_thread(
+        person_mp4, tmp_path) -> None:
+    """Ctrl-C while frame 7 is drawn (frame 8 being read on the model's thread): the log,
+    the CSV and the video end at frame 6, and closing the env stops the thread."""
+    log, threads = MimicLog(fps=30.0), []
+    with pytest.raises(KeyboardInterrupt):
+        mimic_stack(person_mp4, tmp_path / "cut", None, log, ahead=True, threads=threads,
+                    interrupt_at=7)
+    assert len(threads) == 1 and not threads[0].is_alive()  # close joined it
+    video = cv2.VideoCapture(str(tmp_path / "cut" / "mimic.mp4"))
+    try:
+        assert int(video.get(cv2.CAP_PROP_FRAME_COUNT)) == 6
+    finally:
+        video.release()
+    assert len(log.time) == len(read_csv(tmp_path / "cut" / "mimic.csv")) == 6

@@ -53,7 +53,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from imimic_gym.rollout import run_episode
 
     check_writable("demo", "--out", args.out, folder=True)
-    params = checkpoint_params("demo", [args.estimator], args.checkpoint)
+    params: dict[str, Any] = checkpoint_params("demo", [args.estimator], args.checkpoint)
     out = Path(args.out)
     print(f"imimic demo: scenario {args.scenario}, seed {args.seed}, control {args.control}")
     args.estimator = _demo_estimator(args.estimator, args.scenario)

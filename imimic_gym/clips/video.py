@@ -436,8 +436,10 @@ class FrameStream:
     Indexing must move forward: frame i is read when first asked for, and only the last
     ``buffer`` frames are kept, so memory stays bounded however long the stream runs.
     Asking for a frame that has left the buffer raises IndexError (a live stream cannot
-    rewind); asking past the end raises `StreamEndedError`. ``len()`` is the container's
-    frame count (capped at ``max_frames``), else ``max_frames``, else `UNBOUNDED`
+    rewind); asking past the end raises `StreamEndedError`; after the reading failed
+    (`VideoFormatError`, say), asking for a frame not read raises that error again.
+    ``len()`` is the container's frame count (capped at ``max_frames``), else
+    ``max_frames``, else `UNBOUNDED`
     (``length_known`` is False: a live camera runs until it stops; ``cut_short`` is True
     when ``max_frames`` set the length); a stream may end sooner (a truncated file's
     container may promise more frames than it holds). The first frame is read on
@@ -473,6 +475,7 @@ class FrameStream:
             self._copies: dict[int, np.ndarray] = {}  # `fresh`'s, by frame index
             self._next_index = 0
             self.ended = False
+            self._failed: Exception | None = None  # the reading's error, raised again
             self._iterator = (ReadAhead(reader, read_ahead, limit=limit, copies=True)
                               if read_ahead and not reader.live else iter(reader))
             self._pull()
@@ -483,11 +486,16 @@ class FrameStream:
 
     def _pull(self) -> bool:
         assert self._iterator is not None
+        if self._failed is not None:
+            raise self._failed
         try:
             self._frames.append(next(self._iterator))
         except StopIteration:
             self.ended = True
             return False
+        except Exception as error:
+            self._failed = error
+            raise
         if isinstance(self._iterator, ReadAhead):
             copy = self._iterator.last_copy()
             if copy is not None:

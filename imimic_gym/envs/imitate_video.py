@@ -246,6 +246,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         self._frames = self._observed_frames(self.clip)
         self._renderer: OffscreenRenderer | None = None
         self._robot_view_started: np.ndarray | None = None  # robot pose of prepare_render's view
+        self._upcoming: tuple[int, np.ndarray] | None = None  # upcoming_frame's (index, frame)
 
     # The robot and its targets: what ImitateVideo3D-v0 replaces -----------------------
     def _robot_for_clip(self, clip: Clip, control: Control) -> RobotSpec:
@@ -329,11 +330,38 @@ class ImitateVideoEnv(gym.Env, EzPickle):
                         alpha=truth.angular_acceleration[i],
                         torque=np.zeros(truth.angles.shape[1]), trust=1.0)
 
+    def _observed_frame(self, index: int) -> np.ndarray:
+        """Frame ``index`` in an array of its own (a stream's comes copied off this thread)."""
+        frames = self._frames
+        return (frames.fresh(index) if isinstance(frames, FrameStream)
+                else frames[index].copy())
+
+    def upcoming_frame(self) -> np.ndarray | None:
+        """The (H, W, 3) uint8 frame that the next `step` will observe: the very array
+        that its observation's ``frame`` will be, which nothing else holds (read it, do not
+        change it). None where it is not known ahead: after the clip's last frame, before
+        `reset`, on a live source (a camera's frames are read when asked for, so that each
+        is the newest), or where the stream ends or fails there (the step then says so)."""
+        if self.frame_index is None or self.frame_index >= self._last_frame:
+            return None
+        index = self.frame_index + 1
+        if self._upcoming is not None and self._upcoming[0] == index:
+            return self._upcoming[1]
+        if isinstance(self._frames, FrameStream) and self._frames.reader.live:
+            return None
+        try:
+            frame = self._observed_frame(index)
+        except Exception:  # the stream's end or error, which the step's reading raises
+            return None
+        self._upcoming = (index, frame)
+        return frame
+
     def _obs(self) -> dict[str, np.ndarray]:
-        frames = self._frames  # a stream's frame comes copied off this thread
+        assert self.frame_index is not None
+        upcoming, self._upcoming = self._upcoming, None
         return {
-            "frame": (frames.fresh(self.frame_index) if isinstance(frames, FrameStream)
-                      else frames[self.frame_index].copy()),
+            "frame": (upcoming[1] if upcoming is not None and upcoming[0] == self.frame_index
+                      else self._observed_frame(self.frame_index)),
             "qpos": self.data.qpos.copy(),
             "qvel": self.data.qvel.clip(-MAX_OBSERVED_SPEED, MAX_OBSERVED_SPEED),
         }
@@ -389,6 +417,7 @@ class ImitateVideoEnv(gym.Env, EzPickle):
             self.data.ctrl[:] = self.data.qpos  # the servo holds the start pose
         mujoco.mj_forward(self.model, self.data)
         self.frame_index, self._last_frame = 0, len(self.clip) - 1
+        self._upcoming = None
         return self._obs(), self._info(self._tracking())
 
     def step(

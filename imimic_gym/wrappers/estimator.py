@@ -94,9 +94,17 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
             new wrapper (or use `DONObservation`) for a second env.
         keep_frame: False drops ``frame`` from the observation (controllers that do not
             look at pixels train faster without it).
+        estimate_ahead: True, for an estimator with a ``prefetch(frame)`` hook (the pose
+            estimators' `PoseEstimator.prefetch`): each observation's frame is estimated,
+            and the frame the env will observe next (``upcoming_frame()``,
+            `ImitateVideoEnv.upcoming_frame`: the very array of its next observation; None
+            where it is not known ahead, a camera's) is handed over to it before, so that
+            the estimator reads it while the caller works on this one. The estimates are
+            the same. Nothing between the env and this wrapper may replace the frame.
     """
 
-    def __init__(self, env: gym.Env, estimator: Estimator, keep_frame: bool = True) -> None:
+    def __init__(self, env: gym.Env, estimator: Estimator, keep_frame: bool = True,
+                 estimate_ahead: bool = False) -> None:
         space = env.observation_space
         if not isinstance(space, spaces.Dict) or "frame" not in space.spaces:
             raise TypeError(
@@ -109,7 +117,8 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
             raise TypeError(f"obs['frame'] must be a Box (H, W, 3) uint8, got {frame}")
         # Recorded so gym.make(env.spec) can rebuild the stack; a subclass that records
         # its own arguments first keeps those (the first record wins).
-        gym.utils.RecordConstructorArgs.__init__(self, estimator=estimator, keep_frame=keep_frame)
+        gym.utils.RecordConstructorArgs.__init__(self, estimator=estimator, keep_frame=keep_frame,
+                                                 estimate_ahead=estimate_ahead)
         gym.ObservationWrapper.__init__(self, env)
         self.estimator, self.keep_frame = estimator, keep_frame
         action_shape = env.action_space.shape
@@ -129,10 +138,25 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
         self.last_estimate: Estimate | None = None
         self._parents = estimator_context(env).link_parents
         self._frame_height = int(frame.shape[0])
+        prefetch = getattr(estimator, "prefetch", None)
+        self._prefetch = prefetch if estimate_ahead and callable(prefetch) else None
+        self._upcoming = env.get_wrapper_attr("upcoming_frame") if self._prefetch else None
+        self._ahead: np.ndarray | None = None  # the frame handed to prefetch last
 
     def reset(self, **kwargs: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        self._ahead = None
         self.estimator.reset()
         return super().reset(**kwargs)
+
+    def close(self) -> None:
+        """The env's ``close`` and the estimator's, if it has one (a pose model's thread
+        stops)."""
+        try:
+            super().close()
+        finally:
+            close = getattr(self.estimator, "close", None)
+            if callable(close):
+                close()
 
     def render(self) -> np.ndarray | None:
         """The env's (H, 2W, 3) uint8 picture, video left and robot right, with what the
@@ -151,7 +175,14 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
         return draw(picture) if callable(draw) else picture
 
     def observation(self, observation: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        self.last_estimate = self.estimator.update(observation["frame"])
+        frame = observation["frame"]
+        if self._prefetch is not None and self._upcoming is not None:
+            if frame is not self._ahead:  # the first frame, or one not known ahead
+                self._prefetch(frame)
+            self._ahead = self._upcoming()
+            if self._ahead is not None:
+                self._prefetch(self._ahead)
+        self.last_estimate = self.estimator.update(frame)
         vector = np.clip(self.last_estimate.as_vector(), self._low, self._high)
         out = {k: v for k, v in observation.items() if self.keep_frame or k != "frame"}
         out["estimate"] = vector
@@ -163,14 +194,15 @@ class RegistryObservation(EstimatorObservation):
     (`estimators.registry`), built from the env's `EstimatorContext` with ``params``.
     A spatial estimator (on ``ImitateVideo3D-v0``) is read through the env's retargeter
     (`wrappers.spatial.RetargetedEstimator`): the estimate holds the robot's joint
-    targets. Raises `UnsupportedClipError` for a clip it cannot follow. The name and
+    targets. ``estimate_ahead``: as in `EstimatorObservation`. Raises
+    `UnsupportedClipError` for a clip it cannot follow. The name and
     parameters, not the estimator, are what ``gym.make(env.spec)`` and a vector env's
     sub-processes rebuild it from."""
 
     def __init__(self, env: gym.Env, name: str, keep_frame: bool = True,
-                 **params: Any) -> None:
+                 *, estimate_ahead: bool = False, **params: Any) -> None:
         gym.utils.RecordConstructorArgs.__init__(self, name=name, keep_frame=keep_frame,
-                                                 **params)
+                                                 estimate_ahead=estimate_ahead, **params)
         context = estimator_context(env)
         estimator: Estimator
         if get_estimator(name).spatial:
@@ -182,7 +214,7 @@ class RegistryObservation(EstimatorObservation):
                 env.get_wrapper_attr("retarget"), context.fps, start=(low + high) / 2)
         else:
             estimator = build_estimator(name, context, **params)
-        super().__init__(env, estimator, keep_frame=keep_frame)
+        super().__init__(env, estimator, keep_frame=keep_frame, estimate_ahead=estimate_ahead)
 
 
 class DONObservation(EstimatorObservation):

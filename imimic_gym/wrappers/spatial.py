@@ -69,6 +69,19 @@ class RetargetedEstimator:
             return picture
         return draw_side_view(picture, self.last_pose, in_place=True)
 
+    def prefetch(self, frame: np.ndarray) -> None:
+        """The spatial estimator's ``prefetch`` of ``frame`` (the next frame `update` will
+        get, the same array), if it has one; else nothing."""
+        prefetch = getattr(self.spatial, "prefetch", None)
+        if callable(prefetch):
+            prefetch(frame)
+
+    def close(self) -> None:
+        """The spatial estimator's ``close``, if it has one (its threads stop)."""
+        close = getattr(self.spatial, "close", None)
+        if callable(close):
+            close()
+
     def update(self, frame: np.ndarray, depth: np.ndarray | None = None) -> Estimate:
         """The joint targets for the next (H, W, 3) uint8 RGB ``frame`` (``depth``: its
         (H, W) float32 metres, for an estimator that reads depth)."""

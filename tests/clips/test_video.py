@@ -253,6 +253,28 @@ def test_a_resolution_change_mid_stream_is_named(tmp_path) -> None:
     assert reader.capture is None  # released although the iteration raised
 
 
+def test_a_streams_error_is_raised_again_for_every_later_frame(tmp_path) -> None:
+    """A frame peeked ahead (`ImitateVideoEnv.upcoming_frame`) cannot swallow the reading's
+    error: the stream raises it again, so the step to that frame still fails with it."""
+    for i in range(6):
+        size = (30, 40) if i < 4 else (50, 60)
+        cv2.imwrite(str(tmp_path / f"frame_{i:03d}.png"), np.full((*size, 3), 40 * i, np.uint8))
+    message = r"frame 4 is 60x50 but the video started at 40x30"
+    stream = stream_video(tmp_path / "frame_%03d.png", fps=25.0).frames
+    stream[3]
+    for _ in range(2):
+        with pytest.raises(VideoFormatError, match=message):
+            stream[4]
+    env = gym.make("ImitateVideo-v0", clip=stream_video(tmp_path / "frame_%03d.png", fps=25.0))
+    env.reset(seed=0)
+    for _ in range(3):
+        env.step(np.zeros(1, np.float32))
+    assert env.unwrapped.upcoming_frame() is None  # frame 4 fails to read: not known
+    with pytest.raises(VideoFormatError, match=message):
+        env.step(np.zeros(1, np.float32))
+    env.close()
+
+
 def test_an_image_sequence_needs_a_frame_rate(tmp_path) -> None:
     cv2.imwrite(str(tmp_path / "f_000.png"), np.zeros((8, 8, 3), np.uint8))
     with pytest.raises(VideoFormatError, match=r"f_%03d\.png does not report its frame rate"):

@@ -17,6 +17,8 @@ from imimic_gym.clips.annotations import (
 )
 from imimic_gym.clips.cache import load_clip
 from imimic_gym.clips.scenarios import get_scenario
+from imimic_gym.clips.video import VideoReader, stream_video
+from imimic_gym.clips.video_load import load_video
 from imimic_gym.clips.video_writer import write_video
 from imimic_gym.controllers import OracleController
 from imimic_gym.estimators.pose.planar import human_joint_ranges
@@ -153,3 +155,35 @@ def test_a_truth_json_keeps_which_frames_were_labelled(rendered_person, tmp_path
     with pytest.raises(AnnotationError, match=r"broken\.json: the truth file has no "
                                               r"'angular_velocity' key"):
         read_clip_truth(tmp_path / "broken.json")
+
+
+def test_the_upcoming_frame_is_the_next_observations_own_array(servo_mp4) -> None:
+    plain = list(VideoReader(servo_mp4))[:5]
+    for clip in (stream_video(servo_mp4, max_frames=5), load_video(servo_mp4, max_frames=5)):
+        env = gym.make("ImitateVideo-v0", clip=clip)
+        inner = env.unwrapped
+        assert inner.upcoming_frame() is None  # before reset: nothing is known
+        obs, _ = env.reset(seed=0)
+        for index in range(1, 5):
+            upcoming = inner.upcoming_frame()
+            assert inner.upcoming_frame() is upcoming  # asked twice: the same array
+            np.testing.assert_array_equal(upcoming, plain[index])
+            obs, *_ = env.step(np.zeros(1, np.float32))
+            assert obs["frame"] is upcoming
+            assert not np.shares_memory(upcoming, clip.frames[index])
+        assert inner.upcoming_frame() is None  # the clip's last frame
+        obs, _ = env.reset(seed=0)  # a new episode: frame 0 again, nothing held over
+        np.testing.assert_array_equal(inner.upcoming_frame(), plain[1])
+        env.close()
+        if hasattr(clip.frames, "close"):
+            clip.frames.close()
+
+
+def test_a_live_sources_upcoming_frame_is_not_read_ahead(servo_mp4) -> None:
+    clip = stream_video(f"file://{servo_mp4}", max_frames=5)  # a URL: read when asked for
+    env = gym.make("ImitateVideo-v0", clip=clip)
+    env.reset(seed=0)
+    assert env.unwrapped.upcoming_frame() is None
+    assert clip.frames.reader.frames_read == 1
+    env.close()
+    clip.frames.close()

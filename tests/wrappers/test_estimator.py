@@ -162,3 +162,55 @@ def test_a_preview_smaller_than_the_frames_draws_the_link_where_the_arm_is() -> 
     assert yellow[62:98, 49:52].mean() > 0.8  # the link from (50, 100) to (50, 60)
     assert not yellow[100:, 90:110].any()  # nothing where the unscaled link would start
     env.close()
+
+
+@pytest.fixture(scope="module")
+def person_mp4(tmp_path_factory: pytest.TempPathFactory):
+    """The rendered person (default scenario, seed 5, 16 frames) as an mp4."""
+    from imimic_gym.clips.cache import load_clip
+    from imimic_gym.clips.scenarios import get_scenario
+    from imimic_gym.clips.video_writer import write_video
+
+    clip = load_clip(get_scenario("default", seed=5, n_frames=16), progress=False)
+    path = tmp_path_factory.mktemp("person") / "person.mp4"
+    write_video(path, clip.frames, clip.fps)
+    return path
+
+
+def person_env(path, estimator: str, estimate_ahead: bool):
+    from imimic_gym.clips.video import stream_video
+    from imimic_gym.estimators.pose.planar import human_joint_ranges
+    from imimic_gym.wrappers import RegistryObservation
+
+    clip = stream_video(path, joint_ranges=human_joint_ranges(1))
+    scene = (gym.make("ImitateVideo-v0", clip=clip) if estimator == "pose" else
+             gym.make("ImitateVideo3D-v0", clip=clip, robot="so101"))
+    return RegistryObservation(scene, estimator, keep_frame=False,
+                               estimate_ahead=estimate_ahead), clip
+
+
+@pytest.mark.parametrize("estimator", ["pose", "pose3d"])
+def test_estimating_ahead_gives_the_same_estimates_and_stops_its_thread(
+        person_mp4, estimator: str) -> None:
+    """On a file, the pose model reads the next frame on its own thread while this one is
+    worked on; every observation is the one the plain wrapper gives, bit for bit."""
+    runs = {}
+    for ahead in (False, True):
+        env, clip = person_env(person_mp4, estimator, ahead)
+        controller = PDController(env, EstimateTarget(env))
+        obs, _ = env.reset(seed=0)
+        seen = [obs["estimate"]]
+        truncated = False
+        while not truncated:
+            obs, _, _, truncated, _ = env.step(controller(obs))
+            seen.append(obs["estimate"])
+        model = (env.estimator.model if estimator == "pose"
+                 else env.estimator.spatial.model)
+        thread = model.thread
+        assert (thread is not None and thread.is_alive()) == ahead
+        env.close()
+        clip.frames.close()
+        assert model.thread is None and (thread is None or not thread.is_alive())
+        runs[ahead] = np.array(seen)
+    assert len(runs[True]) == 16 and (runs[True][:, -2] > 0).sum() >= 8  # trust
+    np.testing.assert_array_equal(runs[True], runs[False])

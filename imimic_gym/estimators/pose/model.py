@@ -7,6 +7,11 @@ CPU and returns one person's body keypoints in input pixels with a confidence ea
 model's relative depth of each and its 3-D "world" landmarks (`BodyKeypoints`), or None
 where it sees nobody. Why this model and this version, and
 how it is installed beside our numpy and OpenCV: `docs/decisions/pose-model.md`.
+
+A caller that knows its next frames (a video file) may hand them over ahead
+(`PoseModel.submit`): they are read in order on a thread of the model's own while the
+caller works on the frame before, and the call for each returns what it would have
+returned alone.
 """
 
 from __future__ import annotations
@@ -14,9 +19,12 @@ from __future__ import annotations
 import contextlib
 import math
 import os
+import queue
 import sys
+import threading
 import warnings
-from collections.abc import Iterator
+from collections import deque
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -115,6 +123,14 @@ def native_logs_quiet() -> Iterator[None]:
         os.close(kept)
 
 
+def _check_frame(frame: Any) -> None:
+    if not (isinstance(frame, np.ndarray) and frame.dtype == np.uint8 and frame.ndim == 3
+            and frame.shape[2] == 3 and frame.shape[0] > 0 and frame.shape[1] > 0):
+        got = (f"{frame.shape} {frame.dtype}" if isinstance(frame, np.ndarray)
+               else type(frame).__name__)
+        raise ValueError(f"PoseModel takes (H, W, 3) uint8 RGB frames, got {got}")
+
+
 def _solution() -> Any:
     """MediaPipe's legacy Pose solution module (imported here only)."""
     try:
@@ -130,6 +146,39 @@ def _solution() -> Any:
     return pose
 
 
+class _Reading:
+    """One frame handed to `PoseModel.submit` (``frame``, and ``read()`` of its reading):
+    read on the model's thread, its result (or error) kept for the call that asks for it."""
+
+    def __init__(self, frame: np.ndarray, time_s: float | None,
+                 read: Callable[[], BodyKeypoints | None]) -> None:
+        self.frame, self.time_s = frame, time_s
+        self._read: Callable[[], BodyKeypoints | None] | None = read
+        self.done = threading.Event()
+        self.result: BodyKeypoints | None = None
+        self.error: BaseException | None = None
+
+    def run(self) -> None:
+        read, self._read = self._read, None  # holds the model only while it waits or runs
+        try:
+            if read is not None:
+                self.result = read()
+        except BaseException as error:  # handed to the caller that asks for this frame
+            self.error = error
+        finally:
+            self.done.set()
+
+    def cancel(self) -> None:
+        """Not read if not started yet."""
+        self._read = None
+
+
+def _read_ahead(readings: queue.Queue[_Reading | None]) -> None:
+    """A `PoseModel`'s thread: the frames submitted, read in order, until None comes."""
+    while (reading := readings.get()) is not None:
+        reading.run()
+
+
 class PoseModel:
     """MediaPipe Pose on the CPU: (H, W, 3) uint8 RGB frame in, `BodyKeypoints` or None.
 
@@ -142,17 +191,26 @@ class PoseModel:
         min_confidence: the detector's and tracker's thresholds, in [0, 1].
         max_side: frames with a longer side are area-averaged down to it first; the
             model reads a 256x256 crop, so a 1080p frame only costs more to convert.
+        join_timeout_s: how long `close` waits for a frame being read ahead (`submit`).
+
+    Frames handed over ahead (`submit`) are read on the model's thread (``thread``, a
+    daemon, started by the first of them); `close` and `reset` drop those not read yet
+    and stop the thread.
     """
 
     def __init__(self, video: bool = True, min_confidence: float = 0.5,
-                 max_side: int = 640) -> None:
+                 max_side: int = 640, join_timeout_s: float = 10.0) -> None:
         if not 0.0 <= min_confidence <= 1.0:
             raise ValueError(f"min_confidence must be in [0, 1], got {min_confidence!r}")
         if max_side < 64:
             raise ValueError(f"max_side must be at least 64 px, got {max_side!r}")
         _solution()  # fail here, with how to install it, rather than at the first frame
         self.video, self.min_confidence, self.max_side = video, min_confidence, max_side
+        self.join_timeout_s = join_timeout_s
         self._graph: Any = None
+        self._submitted: deque[_Reading] = deque()  # in order, until called for
+        self._readings: queue.Queue[_Reading | None] = queue.Queue()
+        self.thread: threading.Thread | None = None
         self.reset()
 
     def reset(self) -> None:
@@ -170,7 +228,7 @@ class PoseModel:
     # is native code, and a copy starts a new video anyway.
     def __getstate__(self) -> dict[str, Any]:
         return {"video": self.video, "min_confidence": self.min_confidence,
-                "max_side": self.max_side}
+                "max_side": self.max_side, "join_timeout_s": self.join_timeout_s}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         PoseModel.__init__(self, **state)
@@ -178,10 +236,52 @@ class PoseModel:
     def __deepcopy__(self, memo: dict[int, Any]) -> PoseModel:
         return PoseModel(**self.__getstate__())
 
+    def __del__(self) -> None:
+        if getattr(self, "thread", None) is not None:
+            self._readings.put(None)
+
     def close(self) -> None:
+        """Drop the frames submitted and not read yet, stop the model's thread (waiting at
+        most ``join_timeout_s`` for the frame it reads) and close the graph."""
+        submitted, self._submitted = self._submitted, deque()
+        for reading in submitted:
+            reading.cancel()
+        thread, self.thread = self.thread, None
+        if thread is not None:
+            self._readings.put(None)
+            thread.join(timeout=self.join_timeout_s)
+            self._readings = queue.Queue()
+            if thread.is_alive():  # still in the graph: left to it, not closed under it
+                self._graph = None
         if self._graph is not None:
             self._graph.close()
             self._graph = None
+
+    @property
+    def pending(self) -> int:
+        """Frames submitted and not yet called for."""
+        return len(self._submitted)
+
+    def submit(self, frame: np.ndarray, time_s: float | None = None) -> None:
+        """Hand over the frame that comes after those called for or submitted so far, to
+        be read on the model's thread while the caller does other work; the call for it
+        (``model(frame, time_s)``, the same array and time) then returns its result, or
+        raises its error. ``frame`` must not change until then. The first frame of a
+        video (the graph starting) is read here, on the caller's thread; so is each
+        frame's shrinking to ``max_side``, which leaves the model's thread only the model."""
+        _check_frame(frame)
+        small = self._shrink(frame)
+        reading = _Reading(frame, time_s,
+                           lambda: self._read(small, frame.shape[:2], time_s))
+        self._submitted.append(reading)
+        if self._graph is None:
+            reading.run()
+            return
+        if self.thread is None:
+            self.thread = threading.Thread(target=_read_ahead, args=(self._readings,),
+                                           name="pose model", daemon=True)
+            self.thread.start()
+        self._readings.put(reading)
 
     def __call__(self, frame: np.ndarray, time_s: float | None = None
                  ) -> BodyKeypoints | None:
@@ -189,12 +289,39 @@ class PoseModel:
         from call to call; None takes the previous call's plus 1/30 s. In video mode the
         model's filters (the landmarks' smoothing, the next frame's region) weigh motion by
         the time between calls, so a video at another rate, or one read every few frames,
-        needs its real times."""
-        if not (isinstance(frame, np.ndarray) and frame.dtype == np.uint8 and frame.ndim == 3
-                and frame.shape[2] == 3 and frame.shape[0] > 0 and frame.shape[1] > 0):
-            got = (f"{frame.shape} {frame.dtype}" if isinstance(frame, np.ndarray)
-                   else type(frame).__name__)
-            raise ValueError(f"PoseModel takes (H, W, 3) uint8 RGB frames, got {got}")
+        needs its real times. With frames submitted (`submit`), this must be the first of
+        them (the same array and time): RuntimeError otherwise."""
+        _check_frame(frame)
+        if not self._submitted:
+            return self._read(self._shrink(frame), frame.shape[:2], time_s)
+        reading = self._submitted[0]
+        if reading.frame is not frame or reading.time_s != time_s:
+            raise RuntimeError(f"PoseModel: asked for a frame at {time_s!r} s that is not the "
+                               f"next one submitted (at {reading.time_s!r} s): frames "
+                               f"submitted ahead are called for in order, the same arrays")
+        while not reading.done.wait(timeout=0.1):
+            if self.thread is None or not self.thread.is_alive():
+                raise RuntimeError("PoseModel: the thread reading frames ahead has stopped "
+                                   "before reading this one")
+        self._submitted.popleft()
+        if reading.error is not None:
+            raise reading.error
+        return reading.result
+
+    def _shrink(self, frame: np.ndarray) -> np.ndarray:
+        """A checked frame area-averaged down to ``max_side`` on its longer side (as it
+        is if no longer), in contiguous memory: what the graph reads."""
+        h, w = frame.shape[:2]
+        scale = max(h, w) / self.max_side
+        if scale > 1:
+            frame = cv2.resize(frame, (max(1, round(w / scale)), max(1, round(h / scale))),
+                               interpolation=cv2.INTER_AREA)
+        return np.ascontiguousarray(frame)
+
+    def _read(self, small: np.ndarray, size: tuple[int, ...], time_s: float | None
+              ) -> BodyKeypoints | None:
+        """`__call__`'s reading of a frame of ``size`` (rows, columns) shrunk to ``small``
+        (`_shrink`), on whichever thread reads it."""
         starting = self._graph is None
         if starting:
             with native_logs_quiet():
@@ -211,17 +338,13 @@ class PoseModel:
                 raise ValueError(f"PoseModel: frame times must be at least 0 s and increase "
                                  f"from call to call, got {time_s!r} s{after}")
             self._graph._simulated_timestamp = round(time_s * 1e6)
-        h, w = frame.shape[:2]
-        scale = max(h, w) / self.max_side
-        if scale > 1:
-            frame = cv2.resize(frame, (max(1, round(w / scale)), max(1, round(h / scale))),
-                               interpolation=cv2.INTER_AREA)
+        h, w = size[:2]
         with warnings.catch_warnings():
             # protobuf 4.25 warns of an API MediaPipe 0.10.14 calls on every frame.
             warnings.filterwarnings("ignore", message="SymbolDatabase.GetPrototype",
                                     category=UserWarning)
             with native_logs_quiet() if starting else contextlib.nullcontext():
-                result = self._graph.process(np.ascontiguousarray(frame))
+                result = self._graph.process(small)
         if result.pose_landmarks is None:
             return None
         marks = result.pose_landmarks.landmark

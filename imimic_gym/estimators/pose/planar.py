@@ -201,6 +201,17 @@ class PoseEstimator:
         self.last: ArmReading | None = None
         self.reads = 0  # frames read since reset
 
+    def prefetch(self, frame: np.ndarray) -> None:
+        """Start the pose model on ``frame``, the frame after those given to `update` (or
+        here) so far, on the model's thread (`PoseModel.submit`), while the caller works;
+        ``update`` of that same array then takes its reading. For frames read one after
+        another (no ``time_s`` given to `read`)."""
+        self.model.submit(frame, (self.reads + self.model.pending) / self.fps)
+
+    def close(self) -> None:
+        """Stop the pose model (`PoseModel.close`); a later frame starts it again."""
+        self.model.close()
+
     def read(self, frame: np.ndarray, previous: ArmReading | None = None,
              time_s: float | None = None) -> ArmReading | None:
         """This frame's arm, or None where no person (or no confident arm) is seen.

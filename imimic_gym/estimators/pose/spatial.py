@@ -111,6 +111,16 @@ class Pose3DEstimator:
             self.lifter = ArmLifter(camera, self.fps, **self.lift)
         return camera
 
+    def prefetch(self, frame: np.ndarray) -> None:
+        """Start the pose model on ``frame``, the frame after those given to `update` (or
+        here) so far, on the model's thread (`PoseModel.submit`), while the caller works;
+        `update` of that same array then takes its reading."""
+        self.model.submit(frame, (self.reads + self.model.pending) / self.fps)
+
+    def close(self) -> None:
+        """Stop the pose model (`PoseModel.close`); a later frame starts it again."""
+        self.model.close()
+
     def update(self, frame: np.ndarray, depth: np.ndarray | None = None) -> ArmPose:
         """The arm in the next (H, W, 3) uint8 RGB ``frame``; ``depth``: its (H, W) float32
         depth image, metres along the camera's axis (0 where unmeasured), which the

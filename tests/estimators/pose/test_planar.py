@@ -249,3 +249,82 @@ def test_without_mediapipe_the_error_gives_the_install_that_works_from_a_clone(
     readme = (Path(__file__).resolve().parents[3] / "README.md").read_text()
     assert "imimic_gym[" not in readme.replace("`imimic_gym[pose]` by name is not", "")
     assert 'pip install ".[pose]"' in readme and 'pip install ".[ray]"' in readme
+
+
+def same_bodies(a: BodyKeypoints | None, b: BodyKeypoints | None) -> bool:
+    if a is None or b is None:
+        return a is b
+    return all(np.array_equal(x, y) for x, y in ((a.points, b.points),
+                                                 (a.confidence, b.confidence),
+                                                 (a.depth, b.depth), (a.world, b.world)))
+
+
+def test_frames_submitted_ahead_read_as_they_would_alone(person_clip) -> None:
+    """`PoseModel.submit`: frame t+1 read on the model's thread while frame t is taken;
+    every reading is the one the frames give when called one by one, bit for bit."""
+    frames = list(person_clip.frames[:12])  # a frame is known by its array: one each
+    alone = PoseModel(video=True)
+    expected = [alone(frame, t / 30.0) for t, frame in enumerate(frames)]
+    model = PoseModel(video=True)
+    model.submit(frames[0], 0.0)  # the graph starts: read at once, on this thread
+    assert model.thread is None and model.pending == 1
+    got = []
+    for t, frame in enumerate(frames):
+        if t + 1 < len(frames):
+            model.submit(frames[t + 1], (t + 1) / 30.0)
+        got.append(model(frame, t / 30.0))
+    assert model.pending == 0 and model.thread is not None and model.thread.is_alive()
+    assert sum(body is not None for body in got) >= 8
+    assert all(same_bodies(a, b) for a, b in zip(got, expected, strict=True))
+    thread = model.thread
+    model.close()  # waits for the thread (at most join_timeout_s)
+    assert model.thread is None and not thread.is_alive()
+
+
+def test_a_frame_not_submitted_next_is_refused_and_close_drops_the_rest(person_clip) -> None:
+    model = PoseModel(video=True, join_timeout_s=10.0)
+    frames = list(person_clip.frames[:3])
+    for t in range(3):
+        model.submit(frames[t], t / 30.0)
+    with pytest.raises(RuntimeError, match=r"at 0.0666.* s that is not the next one submitted "
+                                           r"\(at 0.0 s\)"):
+        model(frames[2], 2 / 30.0)
+    with pytest.raises(RuntimeError, match="not the next one submitted"):
+        model(frames[0].copy(), 0.0)  # the same pixels in another array
+    thread = model.thread
+    assert thread is not None
+    model.close()
+    assert model.pending == 0 and not thread.is_alive()
+    model(frames[0], 0.0)  # a new video, read on the caller's thread
+    assert model.thread is None
+
+
+def test_an_error_reading_a_frame_ahead_is_raised_by_the_call_for_it(person_clip) -> None:
+    model = PoseModel(video=True)
+    first, second = person_clip.frames[0], person_clip.frames[1]
+    model.submit(first, 0.5)
+    model.submit(second, 0.2)  # earlier than the frame before
+    assert model(first, 0.5) is not None
+    with pytest.raises(ValueError, match="frame times must be at least 0 s and increase"):
+        model(second, 0.2)
+    model.close()
+
+
+def test_the_estimator_prefetching_each_next_frame_gives_the_same_estimates(
+        person_clip) -> None:
+    frames = list(person_clip.frames[:12])
+    plain = PoseEstimator(n_links=1, fps=person_clip.fps)
+    expected = [plain.update(frame) for frame in frames]
+    ahead = PoseEstimator(n_links=1, fps=person_clip.fps)
+    ahead.reset()
+    got = []
+    ahead.prefetch(frames[0])
+    for t, frame in enumerate(frames):
+        if t + 1 < len(frames):
+            ahead.prefetch(frames[t + 1])
+        got.append(ahead.update(frame))
+    assert sum(e.trust > 0 for e in got) >= 8
+    for a, b in zip(got, expected, strict=True):
+        np.testing.assert_array_equal(a.as_vector(), b.as_vector())
+    ahead.close()
+    assert ahead.model.thread is None
