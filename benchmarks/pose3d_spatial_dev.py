@@ -34,7 +34,8 @@ from imimic_gym.estimators.pose.planar import ArmChooser
 from imimic_gym.estimators.pose.spatial import arm_keypoints
 from imimic_gym.metrics import direction_error_deg
 from imimic_gym.spatial import ArmPose, Intrinsics
-from imimic_gym.spatial.lift import ArmLifter, BoneLengths, ShareFilter, from_world_landmarks
+from imimic_gym.spatial.lift import ArmLifter, BoneLengths, from_world_landmarks
+from imimic_gym.spatial.share_filter import ShareFilter
 
 SCENARIOS = ("spatial-reach", "spatial-cup", "spatial-raise", "spatial-curl", "spatial-wave",
              "spatial")

@@ -45,6 +45,8 @@ MODULES: dict[str, tuple[str, tuple[str, ...]]] = {
     "mapping": ("imimic_gym/retarget/mapping.py", ("tests/retarget/test_mapping.py",)),
     "lift": ("imimic_gym/spatial/lift.py", ("tests/spatial/test_lift.py",
                                             "tests/spatial/test_lift_parts.py")),
+    "share_filter": ("imimic_gym/spatial/share_filter.py", ("tests/spatial/test_share_filter.py",
+                                                            "tests/spatial/test_lift.py")),
     "arm_pose": ("imimic_gym/spatial/arm_pose.py", ("tests/spatial/test_arm_pose.py",)),
 }
 PARTS = tuple(MODULES)

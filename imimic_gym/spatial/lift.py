@@ -7,8 +7,9 @@
   depth whose two roots are the bone turned toward or away from the camera. In
   `lift_arm` the pose model's depth order picks the root, and where it barely tells them
   apart, continuity with the previous frame does. `ArmLifter` instead keeps a Bayes
-  filter per arm bone on its signed share between the roots (`ShareFilter`: the bone's
-  2-D length and the model's depth as noisy readings) and takes its posterior mean. A
+  filter per arm bone on its signed share between the roots
+  (`spatial.share_filter.ShareFilter`: the bone's 2-D length and the model's depth as
+  noisy readings) and takes its posterior mean scaled by the sign's certainty. A
   ray that misses the sphere (the 2-D bone is longer than the length allows) takes its
   point nearest the bone's start: the bone lies in the image plane and the length was
   too short, which `BoneLengthEstimator` learns from.
@@ -33,14 +34,21 @@ import numpy as np
 
 from imimic_gym.spatial.arm_pose import ARM_POINTS, ArmPose, angle_between, unit
 from imimic_gym.spatial.camera import Intrinsics
+from imimic_gym.spatial.share_filter import (
+    SHARE_FILTER,
+    ShareFilter,
+    expected_flexion,
+    output_share,
+    predict_belief,
+    uniform_belief,
+    weigh_readings,
+)
 from imimic_gym.spatial.smoothing import OneEuroFilter, OneEuroSettings
 
 __all__ = ["DEFAULT_DEPTH", "FLIP_PATIENCE", "KEYPOINT_NOISE", "LENGTH_QUANTILE", "LIMB_RADIUS",
-           "MAX_TURN_RATE", "ONE_EURO", "SHARE_FILTER", "SHARE_GRID", "SIGN_MARGIN",
-           "SIGN_THRESHOLD", "ArmLifter", "BoneLengthEstimator", "BoneLengths", "ShareFilter",
-           "expected_flexion", "from_depth", "from_world_landmarks", "lift_arm", "neutral_pose",
-           "out_of_plane",
-           "predict_belief", "shoulder_depth", "uniform_belief"]
+           "MAX_TURN_RATE", "ONE_EURO", "SIGN_MARGIN", "SIGN_THRESHOLD", "ArmLifter",
+           "BoneLengthEstimator", "BoneLengths", "from_depth", "from_world_landmarks",
+           "lift_arm", "neutral_pose", "out_of_plane", "shoulder_depth"]
 
 _S, _E, _W, _H, _OS, _HIP, _OHIP = range(len(ARM_POINTS))
 # Where the shoulders' depth cannot be told (shoulders on one pixel): a person at arm's
@@ -187,77 +195,6 @@ def out_of_plane(ratio: float, noise: float) -> float:
     return min(float(weights @ _OUT_OF_PLANE_GRID) / total, 0.999)
 
 
-# The grid of a bone's signed share on which `ShareFilter` keeps its belief.
-SHARE_GRID = np.linspace(-1.0, 1.0, 101)
-_IN_PLANE_RATIO = np.sqrt(1.0 - SHARE_GRID ** 2)  # each share's 2-D length / length
-
-
-@dataclass(frozen=True)
-class ShareFilter:
-    """`ArmLifter`'s Bayes filter on each arm bone's signed share: the bone's extent along
-    its far end's ray from the ray's point nearest its start, over its length, in
-    [-1, 1] (negative: toward the camera). Its prior is uniform (a direction uniform on
-    the sphere). Each frame it weighs two readings:
-
-    - the in-plane ratio r (the in-plane lower bound over the length), Gaussian about
-      sqrt(1 - share^2) with standard deviation ``keypoint_noise``, with an ``outlier``
-      share of readings taken to say nothing (a pose model stretches a foreshortened
-      limb's keypoints);
-    - the model's relative depth of the far end from the ray's nearest point, over the
-      length, Gaussian about ``depth_gain`` times the share with standard deviation
-      ``depth_noise``.
-
-    Between readings the belief spreads by a Gaussian of ``turn_rate`` (share/s) times
-    the time step, and a ``jump`` share of it spreads evenly (a turn the filter missed).
-    The bone takes the posterior mean of the share times the sign's certainty,
-    ``|P(away) - P(toward)| ** certainty_power``: where toward and away are equally
-    likely, the bone lies in the image plane, not at one of them at random, and a belief
-    split between the two tilts it only as far as one side outweighs the other (so a
-    reading that tips the split does not swing the bone from one tilt to its mirror).
-
-    The elbow's flexion (`ArmPose.flexion`) is not the angle between those bones where
-    a bone's expected |share| is ``flexion_over_tilts`` or more: there it is averaged over
-    that bone's two tilts (`expected_flexion`). A forearm pointing at the camera whose
-    sign is unsure lies near the image plane, but its flexion stays bent.
-
-    All attributes are shares of the bone's length (``turn_rate`` per second), >= 0;
-    ``keypoint_noise`` and ``depth_noise`` > 0; ``outlier`` and ``jump`` in [0, 1);
-    ``certainty_power`` >= 0 (0: the plain posterior mean); ``flexion_over_tilts`` over 1:
-    the flexion is always the bones' angle.
-    """
-
-    keypoint_noise: float = 0.06
-    outlier: float = 0.05
-    depth_gain: float = 1.0
-    depth_noise: float = 1.0
-    turn_rate: float = 8.0
-    jump: float = 0.01
-    certainty_power: float = 1.0
-    flexion_over_tilts: float = 0.6
-
-    def __post_init__(self) -> None:
-        for name in ("keypoint_noise", "depth_noise"):
-            if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
-                raise ValueError(f"ShareFilter.{name} must be > 0, got {getattr(self, name)!r}")
-        for name in ("depth_gain", "turn_rate", "certainty_power", "flexion_over_tilts"):
-            if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
-                raise ValueError(f"ShareFilter.{name} must be >= 0, got "
-                                 f"{getattr(self, name)!r}")
-        for name in ("outlier", "jump"):
-            if not 0.0 <= getattr(self, name) < 1.0:
-                raise ValueError(f"ShareFilter.{name} must be in [0, 1), got "
-                                 f"{getattr(self, name)!r}")
-
-
-# The lift's Bayes filter on the arm bones' shares (`ArmLifter`).
-SHARE_FILTER = ShareFilter()
-
-
-def uniform_belief() -> np.ndarray:
-    """`ShareFilter`'s belief before any reading: uniform on `SHARE_GRID`."""
-    return np.full(SHARE_GRID.size, 1.0 / SHARE_GRID.size)
-
-
 def _filter_bone(start: np.ndarray, ray: np.ndarray, length: float,
                  model_delta: float | None, belief: np.ndarray, settings: ShareFilter
                  ) -> tuple[_Bone, np.ndarray]:
@@ -272,88 +209,12 @@ def _filter_bone(start: np.ndarray, ray: np.ndarray, length: float,
     missed = lower_bound > length
     if not length > 0.0:
         return _Bone(max(middle, _DEPTH_RANGE[0]) * ray, lower_bound, missed), belief
-    ratio = lower_bound / length
-    fit = np.exp(-0.5 * ((ratio - _IN_PLANE_RATIO)
-                         / settings.keypoint_noise) ** 2)
-    log_like = np.log((1.0 - settings.outlier) * fit + settings.outlier + 1e-300)
-    if model_delta is not None:
-        evidence = (start[2] + model_delta - middle) * root_a / length
-        log_like -= 0.5 * ((evidence - settings.depth_gain * SHARE_GRID)
-                           / settings.depth_noise) ** 2
-    posterior = belief * np.exp(log_like - log_like.max())
-    total = float(posterior.sum())
-    posterior = posterior / total if total > 0.0 and math.isfinite(total) else uniform_belief()
-    share = _output_share(posterior, settings)
+    evidence = (None if model_delta is None
+                else (start[2] + model_delta - middle) * root_a / length)
+    posterior = weigh_readings(belief, lower_bound / length, evidence, settings)
+    share = output_share(posterior, settings)
     t = max(middle + share * length / root_a, _DEPTH_RANGE[0])
     return _Bone(t * ray, lower_bound, missed), posterior
-
-
-def _output_share(posterior: np.ndarray, settings: ShareFilter) -> float:
-    """A bone's share as `ShareFilter` outputs it: the posterior mean times the sign's
-    certainty to ``certainty_power``."""
-    share = float(posterior @ SHARE_GRID)
-    if settings.certainty_power > 0.0:
-        certainty = abs(float(posterior[SHARE_GRID > 0.0].sum())
-                        - float(posterior[SHARE_GRID < 0.0].sum()))
-        share *= certainty ** settings.certainty_power
-    return share
-
-
-def _tilts(posterior: np.ndarray, settings: ShareFilter) -> tuple[np.ndarray, np.ndarray]:
-    """(n,) shares and (n,) weights summing to 1 that the elbow's flexion is averaged
-    over for one bone: its two tilts (the posterior's mean on each side of the image
-    plane, weighed by that side's probability) where its expected |share| is at least
-    ``settings.flexion_over_tilts``, else its output share alone."""
-    if float(posterior @ np.abs(SHARE_GRID)) < settings.flexion_over_tilts:
-        return np.array([_output_share(posterior, settings)]), np.ones(1)
-    shares, weights = [], []
-    for side in (SHARE_GRID > 0.0, SHARE_GRID < 0.0):
-        mass = float(posterior[side].sum())
-        if mass > 0.0:
-            shares.append(float(posterior[side] @ SHARE_GRID[side]) / mass)
-            weights.append(mass)
-    if not weights:
-        return np.zeros(1), np.ones(1)
-    return np.array(shares), np.array(weights) / sum(weights)
-
-
-def expected_flexion(shoulder: np.ndarray, elbow_ray: np.ndarray, wrist_ray: np.ndarray,
-                     lengths: tuple[float, float], beliefs: tuple[np.ndarray, np.ndarray],
-                     settings: ShareFilter) -> float:
-    """The elbow's flexion (rad, in [0, pi]) from the upper arm's and the forearm's
-    beliefs (posteriors on `SHARE_GRID`, taken as independent), averaged over each
-    bone's tilts (`_tilts`): the elbow on ``elbow_ray`` at the upper arm's share from
-    ``shoulder`` ((3,) metres, camera frame), the wrist on ``wrist_ray`` at the forearm's
-    from that elbow (rays (3,) with z = 1; ``lengths`` (upper arm, forearm) metres).
-    Under an upper arm in the image plane a forearm's two tilts bend the elbow alike, so
-    a forearm whose sign is unsure keeps its flexion, which laid in the plane (its
-    output share) it would not."""
-    upper_shares, upper_weights = _tilts(beliefs[0], settings)
-    fore_shares, fore_weights = _tilts(beliefs[1], settings)
-
-    def ends(starts: np.ndarray, ray: np.ndarray, length: float, shares: np.ndarray
-             ) -> np.ndarray:
-        a = float(ray @ ray)
-        middle = starts @ ray / a  # (n,) t of the ray's points nearest the starts
-        t = middle[:, None] + shares[None, :] * length / math.sqrt(a)
-        return np.maximum(t, _DEPTH_RANGE[0])[..., None] * ray  # (n, shares, 3)
-
-    elbows = ends(shoulder[None], elbow_ray, lengths[0], upper_shares)[0]
-    wrists = ends(elbows, wrist_ray, lengths[1], fore_shares)
-    angles = angle_between((elbows - shoulder)[:, None, :], wrists - elbows[:, None, :])
-    return float(np.clip(upper_weights @ angles @ fore_weights, 0.0, math.pi))
-
-
-def predict_belief(posterior: np.ndarray, settings: ShareFilter, dt: float) -> np.ndarray:
-    """``posterior`` (on `SHARE_GRID`) ``dt`` seconds on (`ShareFilter`'s spread)."""
-    step = float(SHARE_GRID[1] - SHARE_GRID[0])
-    spread = max(settings.turn_rate * max(dt, 0.0), 1e-6) / step  # grid steps
-    half = min(int(3 * spread) + 1, (SHARE_GRID.size - 1) // 2)
-    kernel = np.exp(-0.5 * (np.arange(-half, half + 1) / spread) ** 2)
-    moved = np.convolve(posterior, kernel / kernel.sum(), mode="same")
-    total = float(moved.sum())
-    moved = moved / total if total > 0.0 and math.isfinite(total) else uniform_belief()
-    return (1.0 - settings.jump) * moved + settings.jump / SHARE_GRID.size
 
 
 def _solve_bone(start: np.ndarray, ray: np.ndarray, length: float,
@@ -491,7 +352,8 @@ def _lift(side: str, pixels: np.ndarray, confidence: np.ndarray, depth: np.ndarr
         if share_filter.flexion_over_tilts <= 1.0:
             flexion = expected_flexion(points[_S], rays[_E], rays[_W],
                                        (lengths.upper_arm, lengths.forearm),
-                                       (beliefs[0], beliefs[1]), share_filter)
+                                       (beliefs[0], beliefs[1]), share_filter,
+                                       _DEPTH_RANGE[0])
     else:
         bones = [solve(start, end, getattr(lengths, name), keypoint_noise, float(turn))
                  for (start, end, name), turn in zip(_ARM_BONES, max_turn, strict=True)]

@@ -12,22 +12,17 @@ from imimic_gym.spatial import ArmPose, Intrinsics, angle_between
 from imimic_gym.spatial.lift import (
     DEFAULT_DEPTH,
     LIMB_RADIUS,
-    SHARE_FILTER,
-    SHARE_GRID,
     ArmLifter,
     BoneLengthEstimator,
     BoneLengths,
-    ShareFilter,
-    expected_flexion,
     from_depth,
     from_world_landmarks,
     lift_arm,
     neutral_pose,
     out_of_plane,
-    predict_belief,
     shoulder_depth,
-    uniform_belief,
 )
+from imimic_gym.spatial.share_filter import SHARE_FILTER, ShareFilter
 from imimic_gym.spatial.smoothing import OneEuroFilter, OneEuroSettings
 
 CAMERA = Intrinsics.from_fovy(45, 640, 480)
@@ -461,21 +456,6 @@ def test_the_share_filter_beats_the_sign_rules_where_the_models_depth_is_noisy()
     assert np.median(forearm["filter"]) < np.median(forearm["rules"])
 
 
-def test_the_share_filters_belief_spreads_by_its_turn_rate() -> None:
-    """A certain share spreads over a frame at 30 fps by a standard deviation of
-    turn_rate / 30 (8 / 30 = 0.267; the jump share adds 0.01 of a uniform), and the
-    belief stays a distribution; a uniform belief stays uniform."""
-    spike = np.zeros(SHARE_GRID.size)
-    spike[SHARE_GRID.size // 2] = 1.0
-    belief = predict_belief(spike, SHARE_FILTER, 1 / 30)
-    assert belief.sum() == pytest.approx(1.0)
-    assert (belief >= 0).all()
-    spread = math.sqrt(belief @ SHARE_GRID**2 - (belief @ SHARE_GRID) ** 2)
-    assert spread == pytest.approx(0.2685, abs=0.002)
-    np.testing.assert_allclose(predict_belief(uniform_belief(), ShareFilter(turn_rate=0.0),
-                                              1 / 30), uniform_belief(), rtol=1e-9)
-
-
 def test_a_split_belief_does_not_swing_the_bone_to_its_mirror() -> None:
     """A still forearm tilted toward the camera (extent -0.8), its model depth saying
     toward weakly for 8 frames (0.3 of the truth's), then away for two (-1.0 of it):
@@ -538,27 +518,3 @@ def test_a_forearm_whose_tilt_is_unsure_keeps_its_flexion() -> None:
         assert abs(math.degrees(pose.elbow_flexion) - true_flexion) < 9.0, i
         assert abs(math.degrees(plain.elbow_flexion) - true_flexion) > 16.0, i
     assert math.degrees(angle_between(pose.upper_arm, pose.forearm)) < 10.0
-
-
-def test_the_expected_flexion_of_certain_bones_is_their_angle() -> None:
-    """Beliefs all on one share each: the flexion is the angle between the bones those
-    shares put in place (the lift's own geometry), for random arms."""
-    rng = np.random.default_rng(5)
-    for _ in range(20):
-        truth = arm("left", random_unit(rng), random_unit(rng))
-        pixels, depth = observe(truth)
-        pose = lift_arm("left", pixels, np.ones(7), depth, CAMERA, LENGTHS,
-                        depth_of_shoulder=truth[0, 2])
-        rays = CAMERA.rays(pixels)
-        beliefs = []
-        for start, end, length in ((0, 1, LENGTHS.upper_arm), (1, 2, LENGTHS.forearm)):
-            a = float(rays[end] @ rays[end])
-            middle = float(rays[end] @ pose.points[start]) / a
-            share = (pose.points[end, 2] / rays[end, 2] - middle) * math.sqrt(a) / length
-            belief = np.zeros(SHARE_GRID.size)
-            belief[np.argmin(np.abs(SHARE_GRID - share))] = 1.0
-            beliefs.append(belief)
-        flexion = expected_flexion(pose.points[0], rays[1], rays[2],
-                                   (LENGTHS.upper_arm, LENGTHS.forearm),
-                                   (beliefs[0], beliefs[1]), ShareFilter(flexion_over_tilts=0.0))
-        assert math.degrees(flexion) == pytest.approx(math.degrees(pose.elbow_flexion), abs=3.0)

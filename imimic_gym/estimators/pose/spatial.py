@@ -5,8 +5,8 @@ by one of three routes (``source``):
 
 - ``"lift"``: the bone-length lift of the 2-D keypoints (`spatial.lift.ArmLifter`: the
   person's lengths refined over the clip, each bone's toward/away extent from a Bayes
-  filter on its 2-D length and the model's depth (`spatial.lift.ShareFilter`), One Euro
-  smoothing);
+  filter on its 2-D length and the model's depth (`spatial.share_filter.ShareFilter`),
+  One Euro smoothing);
 - ``"depth"``: the keypoints back-projected through the frame's metric depth image (an
   RGB-D camera), each arm bone kept to the person's length as the depth measures it
   (the median over the clip so far of the frames that measured all three bones within

@@ -1,0 +1,77 @@
+"""The share filter's parts on hand-made beliefs: the spread between frames and the
+elbow's flexion from two bones' beliefs (its use in the lift: tests/spatial/test_lift.py)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from imimic_gym.spatial import Intrinsics
+from imimic_gym.spatial.lift import BoneLengths, lift_arm
+from imimic_gym.spatial.share_filter import (
+    SHARE_FILTER,
+    SHARE_GRID,
+    ShareFilter,
+    expected_flexion,
+    predict_belief,
+    uniform_belief,
+)
+
+CAMERA = Intrinsics.from_fovy(45, 640, 480)
+LENGTHS = BoneLengths()
+
+
+def random_unit(rng: np.random.Generator) -> np.ndarray:
+    v = rng.normal(size=3)
+    return v / np.linalg.norm(v)
+
+
+def arm(upper: np.ndarray, fore: np.ndarray, depth: float = 2.5) -> np.ndarray:
+    """(7, 3) camera-frame points of a left arm of a person facing the camera ``depth`` m
+    away, its upper arm and forearm along the unit directions given."""
+    half, top, bottom = LENGTHS.shoulder_width / 2, -LENGTHS.torso / 2, LENGTHS.torso / 2
+    shoulder = np.array([half, top, depth])
+    elbow = shoulder + LENGTHS.upper_arm * upper
+    wrist = elbow + LENGTHS.forearm * fore
+    return np.array([shoulder, elbow, wrist, wrist + LENGTHS.hand * fore, [-half, top, depth],
+                     [half * 0.7, bottom, depth], [-half * 0.7, bottom, depth]])
+
+
+def test_the_share_filters_belief_spreads_by_its_turn_rate() -> None:
+    """A certain share spreads over a frame at 30 fps by a standard deviation of
+    turn_rate / 30 (8 / 30 = 0.267; the jump share adds 0.01 of a uniform), and the
+    belief stays a distribution; a uniform belief stays uniform."""
+    spike = np.zeros(SHARE_GRID.size)
+    spike[SHARE_GRID.size // 2] = 1.0
+    belief = predict_belief(spike, SHARE_FILTER, 1 / 30)
+    assert belief.sum() == pytest.approx(1.0)
+    assert (belief >= 0).all()
+    spread = math.sqrt(belief @ SHARE_GRID**2 - (belief @ SHARE_GRID) ** 2)
+    assert spread == pytest.approx(0.2685, abs=0.002)
+    np.testing.assert_allclose(predict_belief(uniform_belief(), ShareFilter(turn_rate=0.0),
+                                              1 / 30), uniform_belief(), rtol=1e-9)
+
+
+def test_the_expected_flexion_of_certain_bones_is_their_angle() -> None:
+    """Beliefs all on one share each: the flexion is the angle between the bones those
+    shares put in place (the lift's own geometry), for random arms."""
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        truth = arm(random_unit(rng), random_unit(rng))
+        pixels = CAMERA.project(truth)
+        depth = (truth[:, 2] - truth[5, 2]) * CAMERA.fx / truth[0, 2]
+        pose = lift_arm("left", pixels, np.ones(7), depth, CAMERA, LENGTHS,
+                        depth_of_shoulder=truth[0, 2])
+        rays = CAMERA.rays(pixels)
+        beliefs = []
+        for start, end, length in ((0, 1, LENGTHS.upper_arm), (1, 2, LENGTHS.forearm)):
+            a = float(rays[end] @ rays[end])
+            middle = float(rays[end] @ pose.points[start]) / a
+            share = (pose.points[end, 2] / rays[end, 2] - middle) * math.sqrt(a) / length
+            belief = np.zeros(SHARE_GRID.size)
+            belief[np.argmin(np.abs(SHARE_GRID - share))] = 1.0
+            beliefs.append(belief)
+        flexion = expected_flexion(pose.points[0], rays[1], rays[2],
+                                   (LENGTHS.upper_arm, LENGTHS.forearm),
+                                   (beliefs[0], beliefs[1]), ShareFilter(flexion_over_tilts=0.0))
+        assert math.degrees(flexion) == pytest.approx(math.degrees(pose.elbow_flexion), abs=3.0)
