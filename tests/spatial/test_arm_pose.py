@@ -145,6 +145,8 @@ def test_a_given_flexion_is_the_elbows_and_is_held() -> None:
     assert arm.elbow_flexion == 1.2
     assert arm.held().elbow_flexion == 1.2
     assert pose("right", RIGHT).flexion is None
+    for edge in (0.0, math.pi):  # a straight arm and one folded flat are flexions too
+        assert ArmPose("right", RIGHT, np.ones(7), np.zeros((7, 2)), flexion=edge).flexion == edge
     for bad in (-0.1, 3.2, math.nan):
         with pytest.raises(ValueError, match=r"ArmPose\.flexion must be None or in \[0, pi\]"):
             ArmPose("right", RIGHT, np.ones(7), np.zeros((7, 2)), flexion=bad)
