@@ -84,3 +84,16 @@ def local_ray():
     ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False)
     yield ray
     ray.shutdown()
+
+
+@pytest.fixture(scope="session")
+def person_mp4(tmp_path_factory: pytest.TempPathFactory):
+    """The rendered person (default scenario, seed 5, 20 frames) as an mp4."""
+    from imimic_gym.clips.cache import load_clip
+    from imimic_gym.clips.scenarios import get_scenario
+    from imimic_gym.clips.video_writer import write_video
+
+    clip = load_clip(get_scenario("default", seed=5, n_frames=20), progress=False)
+    path = tmp_path_factory.mktemp("person") / "person.mp4"
+    write_video(path, clip.frames, clip.fps)
+    return path

@@ -436,15 +436,6 @@ def test_ctrl_c_stops_the_command_with_130_and_as_many_frames_in_video_as_in_jso
     assert len(read_csv(out / "mimic.csv")) == summary["frames"]
 
 
-@pytest.fixture(scope="module")
-def person_mp4(tmp_path_factory: pytest.TempPathFactory):
-    """The rendered person (default scenario, seed 5, 20 frames) as an mp4."""
-    clip = load_clip(get_scenario("default", seed=5, n_frames=20), progress=False)
-    path = tmp_path_factory.mktemp("person") / "person.mp4"
-    write_video(path, clip.frames, clip.fps)
-    return path
-
-
 def without_latency(path) -> list[list[str]]:
     with open(path, newline="") as table:
         return [row[:-1] for row in csv.reader(table)]  # latency_ms: the last column

@@ -511,13 +511,12 @@ class ArmLifter:
         self.estimators[side].observe(bounds)
         points = (self.filter.filter(pose.points, dt) if self.smoothing is not None
                   else pose.points)
-        smoothed_pose = ArmPose(side, points, pose.confidence, pixels, pose.trust)
         flexion = None
         if pose.flexion is not None:  # the smoothed bones' angle, offset as the lift's was
+            smoothed_bend = float(angle_between(points[_E] - points[_S], points[_W] - points[_E]))
             bent = float(angle_between(pose.upper_arm, pose.forearm))
-            flexion = float(np.clip(smoothed_pose.elbow_flexion + pose.flexion - bent,
-                                    0.0, math.pi))
-        pose = replace(smoothed_pose, flexion=flexion)
+            flexion = float(np.clip(smoothed_bend + pose.flexion - bent, 0.0, math.pi))
+        pose = ArmPose(side, points, pose.confidence, pixels, pose.trust, flexion=flexion)
         self.previous, self.time = pose, now
         return pose
 

@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from imimic_gym.spatial import Intrinsics, angle_between
-from imimic_gym.spatial.lift import BoneLengths, lift_arm
+from imimic_gym.spatial import angle_between
+from imimic_gym.spatial.lift import lift_arm
 from imimic_gym.spatial.share_filter import (
     SHARE_FILTER,
     SHARE_GRID,
@@ -16,25 +16,7 @@ from imimic_gym.spatial.share_filter import (
     predict_belief,
     uniform_belief,
 )
-
-CAMERA = Intrinsics.from_fovy(45, 640, 480)
-LENGTHS = BoneLengths()
-
-
-def random_unit(rng: np.random.Generator) -> np.ndarray:
-    v = rng.normal(size=3)
-    return v / np.linalg.norm(v)
-
-
-def arm(upper: np.ndarray, fore: np.ndarray, depth: float = 2.5) -> np.ndarray:
-    """(7, 3) camera-frame points of a left arm of a person facing the camera ``depth`` m
-    away, its upper arm and forearm along the unit directions given."""
-    half, top, bottom = LENGTHS.shoulder_width / 2, -LENGTHS.torso / 2, LENGTHS.torso / 2
-    shoulder = np.array([half, top, depth])
-    elbow = shoulder + LENGTHS.upper_arm * upper
-    wrist = elbow + LENGTHS.forearm * fore
-    return np.array([shoulder, elbow, wrist, wrist + LENGTHS.hand * fore, [-half, top, depth],
-                     [half * 0.7, bottom, depth], [-half * 0.7, bottom, depth]])
+from tests.spatial.test_lift import CAMERA, LENGTHS, arm, observe, random_unit
 
 
 def test_the_share_filters_belief_spreads_by_its_turn_rate() -> None:
@@ -57,9 +39,8 @@ def test_the_expected_flexion_of_certain_bones_is_their_angle() -> None:
     shares put in place (the lift's own geometry), for random arms."""
     rng = np.random.default_rng(5)
     for _ in range(20):
-        truth = arm(random_unit(rng), random_unit(rng))
-        pixels = CAMERA.project(truth)
-        depth = (truth[:, 2] - truth[5, 2]) * CAMERA.fx / truth[0, 2]
+        truth = arm("left", random_unit(rng), random_unit(rng))
+        pixels, depth = observe(truth)
         pose = lift_arm("left", pixels, np.ones(7), depth, CAMERA, LENGTHS,
                         depth_of_shoulder=truth[0, 2])
         rays = CAMERA.rays(pixels)
