@@ -2,6 +2,8 @@
 fresh CI run renders (and so tests) the real rendering path."""
 
 import os
+import shutil
+from collections.abc import Iterator
 
 import pytest
 
@@ -9,8 +11,13 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 
 @pytest.fixture(scope="session", autouse=True)
-def private_clip_cache(tmp_path_factory: pytest.TempPathFactory) -> None:
-    os.environ["IMIMIC_CACHE_DIR"] = str(tmp_path_factory.mktemp("clip_cache"))
+def private_clip_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
+    """A clip cache for this session only, deleted when the session ends: a full run renders
+    about 3.6 GB of clips, and pytest keeps its last three runs' folders."""
+    cache = tmp_path_factory.mktemp("clip_cache")
+    os.environ["IMIMIC_CACHE_DIR"] = str(cache)
+    yield
+    shutil.rmtree(cache, ignore_errors=True)
 
 
 @pytest.fixture(scope="session")
