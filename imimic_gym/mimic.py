@@ -263,12 +263,15 @@ class _Progress:
 
 
 def write_behind(path: Path, frames: Iterator[np.ndarray], fps: float,
-                 depth: int = 8) -> None:
+                 depth: int = 8, finish_within: float = 30.0) -> None:
     """`write_video` on a thread of its own, fed through a queue of ``depth`` frames, so
     that encoding a frame overlaps estimating the next (the encoder and the estimator
     then share the two cores). The file is finalised whatever ends the run (Ctrl-C
     included), with every frame ``frames`` yielded exactly once, even one whose hand-over
-    Ctrl-C interrupted; an error of the writer's is raised here."""
+    Ctrl-C interrupted; an error of the writer's is raised here. Finishing (the queued
+    frames encoded, the file's index written) ignores a second Ctrl-C and waits at most
+    ``finish_within`` seconds: a writer still busy then raises `TimeoutError` (the file
+    may not play)."""
     done = object()
     pending: queue.Queue = queue.Queue(maxsize=depth)
     failed: list[BaseException] = []
@@ -303,11 +306,20 @@ def write_behind(path: Path, frames: Iterator[np.ndarray], fps: float,
                 break
     finally:
         # Ctrl-C may land while a frame waits for room in the queue or just after it
-        # went in: handing the last frame over again is safe either way.
-        if made and not failed:
-            pending.put((made - 1, frame))
-        pending.put(done)
-        writer.join()
+        # went in: handing the last frame over again is safe either way. A second one
+        # must not cut the finish short: the file's index is written last.
+        with unstoppable():
+            end = time.monotonic() + finish_within
+            try:
+                if made and not failed:
+                    pending.put((made - 1, frame), timeout=finish_within)
+                pending.put(done, timeout=max(end - time.monotonic(), 1e-3))
+            except queue.Full:  # the writer is stuck: it takes no more
+                pass
+            writer.join(timeout=max(end - time.monotonic(), 0.0))
+        if writer.is_alive():
+            raise TimeoutError(f"{path}: the video writer did not finish within "
+                               f"{finish_within:g} s; the file may not play")
     if failed:
         raise failed[0]
 

@@ -365,6 +365,54 @@ def test_a_ctrl_c_before_the_first_frame_does_not_hang_the_writer(tmp_path) -> N
     assert len(raised) == 1 and isinstance(raised[0], KeyboardInterrupt)
 
 
+def test_a_second_ctrl_c_while_the_video_is_finished_is_ignored(tmp_path, monkeypatch) -> None:
+    """A Ctrl-C that lands while the writer finishes the file (here: sent by the writer
+    itself once it has every frame) neither stops `write_behind` nor leaves a file that
+    does not play."""
+    import imimic_gym.mimic as mimic
+
+    real_write = mimic.write_video
+
+    def write_then_interrupt(path, frames, fps):
+        def frames_then_signal():
+            yield from frames
+            os.kill(os.getpid(), signal.SIGINT)  # the main thread is in the join now
+        return real_write(path, frames_then_signal(), fps)
+
+    monkeypatch.setattr(mimic, "write_video", write_then_interrupt)
+    frames = (np.full((32, 48, 3), 10 * i, dtype=np.uint8) for i in range(12))
+    mimic.write_behind(tmp_path / "done.mp4", frames, 30.0, depth=2)
+    capture = cv2.VideoCapture(str(tmp_path / "done.mp4"))
+    try:
+        assert int(capture.get(cv2.CAP_PROP_FRAME_COUNT)) == 12
+    finally:
+        capture.release()
+
+
+def test_a_writer_that_never_finishes_is_an_error_not_a_hang(tmp_path, monkeypatch) -> None:
+    """A writer stuck after its last frame (a hung disk, say): `write_behind` gives up
+    after ``finish_within`` seconds with a TimeoutError naming the file."""
+    import threading
+
+    import imimic_gym.mimic as mimic
+
+    release = threading.Event()
+
+    def stuck_write(path, frames, fps):
+        for _ in frames:
+            pass
+        release.wait(60)
+
+    monkeypatch.setattr(mimic, "write_video", stuck_write)
+    frames = (np.zeros((32, 48, 3), np.uint8) for _ in range(5))
+    try:
+        with pytest.raises(TimeoutError, match=r"stuck\.mp4.*did not finish within 0\.2 s"):
+            mimic.write_behind(tmp_path / "stuck.mp4", frames, 30.0, depth=2,
+                               finish_within=0.2)
+    finally:
+        release.set()
+
+
 class InterruptedRender(gym.Wrapper):
     """Stands in for the user pressing Ctrl-C while a frame is being drawn (the costliest
     part of a frame): the ``at``-th ``render`` raises KeyboardInterrupt."""
