@@ -21,7 +21,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from ctypes import ArgumentError
 
-__all__ = ["CTRL_C", "is_ctrl_c", "unstoppable"]
+__all__ = ["CTRL_C", "ctrl_c_held", "is_ctrl_c", "unstoppable"]
 
 # What to catch; then ask is_ctrl_c.
 CTRL_C = (KeyboardInterrupt, SystemError, ArgumentError, ImportError)
@@ -54,3 +54,22 @@ def unstoppable() -> Iterator[None]:
         yield
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+@contextmanager
+def ctrl_c_held() -> Iterator[None]:
+    """Ctrl-C held back inside (in the main thread) and raised as KeyboardInterrupt as the
+    block ends: for steps that must happen together or not at all, such as logging a frame
+    and handing it to the video writer. A generator may hold it across a ``yield``: the
+    consumer's hand-over is then inside too."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    pressed: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda number, _frame: pressed.append(number))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if pressed:
+        raise KeyboardInterrupt

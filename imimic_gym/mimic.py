@@ -51,7 +51,7 @@ from imimic_gym.clips.video_writer import write_video
 from imimic_gym.envs.imitate_video import imitate_env
 from imimic_gym.estimators.registry import get_estimator
 from imimic_gym.hardware.so101 import PortLostError as RobotLinkLost
-from imimic_gym.interrupts import CTRL_C, is_ctrl_c, unstoppable
+from imimic_gym.interrupts import CTRL_C, ctrl_c_held, is_ctrl_c, unstoppable
 from imimic_gym.rollout import Observer, Step, Trajectory, episode
 from imimic_gym.wrappers import EstimatorObservation, RegistryObservation, RenderAhead
 from imimic_gym.wrappers.spatial import RetargetedEstimator
@@ -221,7 +221,8 @@ def mimic_frames(env: EstimatorObservation, controller: Any, log: MimicLog, rows
     Observers, in order: the joint command to ``servo`` (a `ServoBridge`) and ``log``
     (the estimate, robot angle and latency); then, once the frame is drawn, a row into the
     csv writer ``rows`` and ``observers`` (a progress display). A frame whose drawing is
-    interrupted (Ctrl-C) is taken back out of ``log``, so the log, the CSV and the frames
+    interrupted (Ctrl-C) is taken back out of ``log``; a Ctrl-C from its row until the
+    consumer asks for the next frame is raised then, so the log, the CSV and the frames
     yielded end at the same frame. A stream that ends early ends the run, not an error.
     ``realtime`` waits until frame i's time (i / fps after the first). ``robot``: a
     spatial robot's description (`robots.SO101Spec`) on ``ImitateVideo3D-v0``: its rows
@@ -239,9 +240,10 @@ def mimic_frames(env: EstimatorObservation, controller: Any, log: MimicLog, rows
         except BaseException:
             log.drop_last()
             raise
-        for observer in drawn:
-            observer.on_step(env, step)
-        yield frame
+        with ctrl_c_held():  # the row, the progress and the video all take the frame
+            for observer in drawn:
+                observer.on_step(env, step)
+            yield frame
 
 
 class _Progress:

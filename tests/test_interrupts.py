@@ -112,3 +112,42 @@ def test_unstoppable_ignores_ctrl_c_inside_and_restores_it() -> None:
             time.sleep(5)  # interrupted by the KeyboardInterrupt long before
     finally:
         signal.signal(signal.SIGINT, started_with)
+
+
+def test_ctrl_c_held_raises_it_as_the_block_ends_and_restores_the_handler() -> None:
+    """`ctrl_c_held`: the block runs to its end, then the Ctrl-C it held is raised; a block
+    without one ends quietly; held across a generator's yield, the consumer's step between
+    two frames is inside."""
+    import signal
+    import time
+
+    from imimic_gym.interrupts import ctrl_c_held
+
+    started_with = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        finished = False
+        with pytest.raises(KeyboardInterrupt):
+            with ctrl_c_held():
+                os.kill(os.getpid(), signal.SIGINT)  # handled by this (main) thread at once
+                time.sleep(0.05)
+                finished = True
+        assert finished and signal.getsignal(signal.SIGINT) is signal.default_int_handler
+        with ctrl_c_held():
+            pass
+
+        def frames():
+            for i in range(3):
+                with ctrl_c_held():
+                    yield i
+
+        handed: list[int] = []
+        with pytest.raises(KeyboardInterrupt):
+            for frame in frames():
+                if frame == 1:
+                    os.kill(os.getpid(), signal.SIGINT)  # between taking frame 1 and keeping it
+                    time.sleep(0.05)
+                handed.append(frame)
+        assert handed == [0, 1]
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, started_with)
