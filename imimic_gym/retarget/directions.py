@@ -83,6 +83,10 @@ class DirectionRetargeter:
     ``max_step`` rad from ``previous``, so where the robot does swing, it swings over
     several frames instead of flipping. The squared costs add: continuity^2 * sum(d^2)
     + jump_cost^2 * sum(max(|d| - max_step, 0)^2) over pan, lift and elbow moves d.
+    An upper arm hanging lower than the robot can point counts with its horizontal part
+    shrunk (``hanging_power``, `_below_reach`): near the pole that part is mostly the
+    estimate's error, so the forearm turns the pan there instead of an upper arm's
+    slight tilt back swinging the robot half a turn.
     """
 
     spec: SO101Spec = field(default_factory=SO101Spec)
@@ -94,6 +98,7 @@ class DirectionRetargeter:
     max_step: float = math.radians(12.0)
     forearm_weight: float = 1.0
     flexion_weight: float = 0.0
+    hanging_power: float = 2.0
 
     def __post_init__(self) -> None:
         for name, index in (("wrist_roll", _ROLL), ("gripper", _GRIP)):
@@ -101,10 +106,12 @@ class DirectionRetargeter:
             if not lo <= getattr(self, name) <= hi:
                 raise ValueError(f"DirectionRetargeter.{name} must be inside its joint range "
                                  f"[{lo}, {hi}] rad, got {getattr(self, name)}")
-        weights = (self.continuity, self.jump_cost, self.forearm_weight, self.flexion_weight)
+        weights = (self.continuity, self.jump_cost, self.forearm_weight, self.flexion_weight,
+                   self.hanging_power)
         if min(weights) < 0 or self.max_step <= 0:
-            raise ValueError(f"continuity, jump_cost, forearm_weight and flexion_weight must "
-                             f"be >= 0 and max_step > 0, got {weights} and {self.max_step}")
+            raise ValueError(f"continuity, jump_cost, forearm_weight, flexion_weight and "
+                             f"hanging_power must be >= 0 and max_step > 0, got {weights} and "
+                             f"{self.max_step}")
 
     @cached_property
     def _zero_angles(self) -> tuple[float, float]:
@@ -133,13 +140,14 @@ class DirectionRetargeter:
             np.stack([pose.upper_arm, pose.forearm, pose.hand]))))
         flexion = pose.elbow_flexion
         last = None if previous is None else self.spec.clip(previous)
+        aim = self._below_reach(upper)
 
         lo, hi = self.spec.joint_ranges[_PAN]
-        best = self._arms(upper, fore, flexion, self._candidate_pans(upper, fore, last), last)
+        best = self._arms(aim, fore, flexion, self._candidate_pans(aim, fore, last), last)
         for spacing in _REFINE_SPACINGS:
             pan = best.pans[np.argmin(best.costs)]
             offsets = spacing * np.arange(-_REFINE_HALF_WIDTH, _REFINE_HALF_WIDTH + 1)
-            around = self._arms(upper, fore, flexion, np.minimum(np.maximum(pan + offsets, lo), hi),
+            around = self._arms(aim, fore, flexion, np.minimum(np.maximum(pan + offsets, lo), hi),
                                 last)
             if around.costs.min() < best.costs.min():
                 best = around
@@ -149,6 +157,20 @@ class DirectionRetargeter:
         if last is None:
             return q
         return np.clip(q, last - self.max_step, last + self.max_step)
+
+    def _below_reach(self, upper: np.ndarray) -> np.ndarray:
+        """The upper arm (3,) unit, robot base frame) that the pan and elevations aim at:
+        ``upper`` itself where the robot can point that low; below its lowest elevation
+        (a hanging arm) its horizontal part shrunk by (its length / the lowest elevation's
+        cosine) ** ``hanging_power``. Such an arm's horizontal direction is ill-defined
+        near the pole and out of the robot's reach anyway, so the forearm decides the pan
+        there."""
+        lowest = self._elevation_ranges[0][0]
+        if self.hanging_power <= 0.0 or upper[2] >= math.sin(lowest):
+            return upper
+        across = math.hypot(float(upper[0]), float(upper[1]))
+        shrink = (across / math.cos(lowest)) ** self.hanging_power
+        return unit(np.array([upper[0] * shrink, upper[1] * shrink, upper[2]]))
 
     def _candidate_pans(self, upper: np.ndarray, fore: np.ndarray, last: np.ndarray | None
                         ) -> np.ndarray:
