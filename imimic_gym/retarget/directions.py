@@ -7,7 +7,8 @@ up) and taken into the **robot base frame** (x forward, y left, z up) by a
 parallel, so its upper arm, forearm and hand always lie in one vertical plane, the plane
 turned by shoulder_pan. The retargeter picks the plane and the two elevations in it that
 point both segments nearest the person's: the squared angle of the upper arm's error plus
-``forearm_weight`` times the forearm's (`DirectionRetargeter`), within the joint ranges.
+``forearm_weight`` times the forearm's (`DirectionRetargeter`; an upper arm hanging below
+the robot's reach with its horizontal part shrunk), within the joint ranges.
 Where the person's arm
 is a pose the robot can take, both come back exactly.
 
