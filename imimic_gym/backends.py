@@ -16,6 +16,7 @@ screen: a failed item's error comes back in its `Outcome`.
 
 from __future__ import annotations
 
+import logging
 import os
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
@@ -73,6 +74,7 @@ class ray_session:
         ray = _import_ray()
         if not ray.is_initialized():
             kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False,
+                                      "logging_level": logging.WARNING,  # no start-up notes
                                       "runtime_env": {"env_vars": _forwarded_environment()}}
             if self.address is None:
                 kwargs["num_cpus"] = self.num_cpus
