@@ -143,11 +143,13 @@ class CsvLog:
 def spatial_csv_header(joint_names: Sequence[str]) -> list[str]:
     """mimic.csv's columns for a spatial robot (``--robot so101``): the arm read in 3-D
     (elbow flexion, degrees; the upper-arm and forearm unit directions in the camera
-    frame, x right, y down, z away from the camera) and the robot's joint targets named as
-    LeRobot names them (``shoulder_pan.pos``: degrees; ``gripper.pos``: 0-100)."""
+    frame, x right, y down, z away from the camera), the robot's joint targets named as
+    LeRobot names them (``shoulder_pan.pos``: degrees; ``gripper.pos``: 0-100), the
+    latency, and which of the person's arms the row reads (``arm``: their own "left" or
+    "right"; the moving one unless ``--arm`` names it)."""
     return ["time_s", "frame", "eta", "elbow_flexion_deg", "upper_x", "upper_y", "upper_z",
             "fore_x", "fore_y", "fore_z", *(f"{name}.pos" for name in joint_names),
-            "latency_ms"]
+            "latency_ms", "arm"]
 
 
 class SpatialCsvLog:
@@ -173,7 +175,7 @@ class SpatialCsvLog:
                             *(f"{v:.5f}" for v in pose.upper_arm),
                             *(f"{v:.5f}" for v in pose.forearm),
                             *(f"{targets[name]:.4f}" for name in self.robot.joint_names),
-                            f"{self.log.latency_ms[-1]:.2f}"])
+                            f"{self.log.latency_ms[-1]:.2f}", pose.side])
 
 
 class BusOut:

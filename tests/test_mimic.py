@@ -486,7 +486,9 @@ def test_ctrl_c_stops_the_command_with_130_and_as_many_frames_in_video_as_in_jso
 
 def without_latency(path) -> list[list[str]]:
     with open(path, newline="") as table:
-        return [row[:-1] for row in csv.reader(table)]  # latency_ms: the last column
+        rows = list(csv.reader(table))
+    column = rows[0].index("latency_ms")
+    return [row[:column] + row[column + 1:] for row in rows]
 
 
 def mimic_stack(path, out, robot: str | None, log: MimicLog, ahead: bool, threads: list,
@@ -557,3 +559,39 @@ def test_ctrl_c_while_estimating_ahead_keeps_the_finished_frames_and_stops_the_t
     finally:
         video.release()
     assert len(log.time) == len(read_csv(tmp_path / "cut" / "mimic.csv")) == 6
+
+
+def test_mimic_so101_writes_the_named_columns(person_mp4, tmp_path) -> None:
+    """`imimic mimic --robot so101` on a short rendered clip: mimic.csv has the issue's
+    columns (the elbow's flexion in degrees, the upper arm's and forearm's unit directions
+    in the camera frame, the joint targets named as LeRobot names them) and the arm read,
+    one row a frame, every value finite and in range."""
+    from imimic_gym.hardware.calibration import SO101_JOINTS
+    from imimic_gym.robots import SO101Spec
+
+    assert main(["mimic", "--video", str(person_mp4), "--robot", "so101", "--out",
+                 str(tmp_path)]) == 0
+    with (tmp_path / "mimic.csv").open(newline="") as table:
+        header = next(csv.reader(table))
+    directions = ["upper_x", "upper_y", "upper_z", "fore_x", "fore_y", "fore_z"]
+    assert header == ["time_s", "frame", "eta", "elbow_flexion_deg", *directions,
+                      *(f"{name}.pos" for name in SO101_JOINTS), "latency_ms", "arm"]
+    rows = read_csv(tmp_path / "mimic.csv")
+    assert [int(row["frame"]) for row in rows] == list(range(20))
+    read = [row for row in rows if float(row["eta"]) > 0]
+    assert len(read) >= 10
+    spec = SO101Spec()
+    for row in rows:
+        values = {name: float(row[name]) for name in header if name != "arm"}
+        assert all(math.isfinite(v) for v in values.values())
+        assert 0.0 <= values["elbow_flexion_deg"] <= 180.0
+        for bone in ("upper", "fore"):
+            length = math.hypot(*(values[f"{bone}_{axis}"] for axis in "xyz"))
+            assert length == pytest.approx(1.0, abs=1e-4)
+        for name, (lo, hi) in zip(SO101_JOINTS[:5], spec.joint_ranges[:5], strict=True):
+            assert math.radians(values[f"{name}.pos"]) == pytest.approx(
+                min(max(math.radians(values[f"{name}.pos"]), lo), hi), abs=1e-4)
+        assert 0.0 <= values["gripper.pos"] <= 100.0
+        assert row["arm"] in ("left", "right")
+    # The rendered person moves their left arm, the label's side (Clip.meta["arm_side"]).
+    assert {row["arm"] for row in read} == {"left"}
