@@ -58,18 +58,21 @@ def unstoppable() -> Iterator[None]:
 
 @contextmanager
 def ctrl_c_held() -> Iterator[None]:
-    """Ctrl-C held back inside (in the main thread) and raised as KeyboardInterrupt as the
-    block ends: for steps that must happen together or not at all, such as logging a frame
-    and handing it to the video writer. A generator may hold it across a ``yield``: the
-    consumer's hand-over is then inside too."""
-    if threading.current_thread() is not threading.main_thread():
+    """Ctrl-C held back inside (in the main thread) and delivered to the handler there was
+    before as the block ends (Python's own raises KeyboardInterrupt): for steps that must
+    happen together or not at all, such as logging a frame and handing it to the video
+    writer. A generator may hold it across a ``yield``: the consumer's hand-over is then
+    inside too. Where Ctrl-C is ignored (a background job) nothing changes."""
+    previous = signal.getsignal(signal.SIGINT)
+    if (threading.current_thread() is not threading.main_thread()
+            or previous in (signal.SIG_IGN, None)):
         yield
         return
     pressed: list[int] = []
-    previous = signal.signal(signal.SIGINT, lambda number, _frame: pressed.append(number))
+    signal.signal(signal.SIGINT, lambda number, _frame: pressed.append(number))
     try:
         yield
     finally:
         signal.signal(signal.SIGINT, previous)
     if pressed:
-        raise KeyboardInterrupt
+        signal.raise_signal(signal.SIGINT)  # its handler runs before this returns

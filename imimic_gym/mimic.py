@@ -309,6 +309,9 @@ def write_behind(path: Path, frames: Iterator[np.ndarray], fps: float,
             if failed:
                 break
     finally:
+        close = getattr(frames, "close", None)
+        if close is not None:  # a generator left mid-way (the writer failed) ends here
+            close()
         # Ctrl-C may land while a frame waits for room in the queue or just after it
         # went in: handing the last frame over again is safe either way. A second one
         # must not cut the finish short: the file's index is written last.

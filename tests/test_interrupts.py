@@ -117,7 +117,7 @@ def test_unstoppable_ignores_ctrl_c_inside_and_restores_it() -> None:
 def test_ctrl_c_held_raises_it_as_the_block_ends_and_restores_the_handler() -> None:
     """`ctrl_c_held`: the block runs to its end, then the Ctrl-C it held is raised; a block
     without one ends quietly; held across a generator's yield, the consumer's step between
-    two frames is inside."""
+    two frames is inside; where Ctrl-C is ignored it stays ignored."""
     import signal
     import time
 
@@ -149,5 +149,10 @@ def test_ctrl_c_held_raises_it_as_the_block_ends_and_restores_the_handler() -> N
                 handed.append(frame)
         assert handed == [0, 1]
         assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # a background job ignores Ctrl-C
+        with ctrl_c_held():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
     finally:
         signal.signal(signal.SIGINT, started_with)

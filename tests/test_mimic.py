@@ -389,6 +389,33 @@ def test_a_second_ctrl_c_while_the_video_is_finished_is_ignored(tmp_path, monkey
         capture.release()
 
 
+def test_a_writer_that_fails_ends_the_frames_and_gives_ctrl_c_back(tmp_path) -> None:
+    """The writer refuses a frame while the frames' generator holds Ctrl-C across its
+    yield (as `mimic_frames` does): `write_behind` raises the writer's error and closes the
+    generator, so Ctrl-C is Python's own again."""
+    from imimic_gym.interrupts import ctrl_c_held
+    from imimic_gym.mimic import write_behind
+
+    closed = []
+
+    def held_frames():
+        try:
+            for size in [32] + [16] * 20:  # a different size: the writer refuses it
+                with ctrl_c_held():
+                    yield np.zeros((size, 48, 3), np.uint8)
+        finally:
+            closed.append(True)
+
+    started_with = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(ValueError, match="earlier frames"):
+            write_behind(tmp_path / "bad.mp4", held_frames(), 30.0, depth=2)
+        assert closed == [True]
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, started_with)
+
+
 def test_a_writer_that_never_finishes_is_an_error_not_a_hang(tmp_path, monkeypatch) -> None:
     """A writer stuck after its last frame (a hung disk, say): `write_behind` gives up
     after ``finish_within`` seconds with a TimeoutError naming the file."""

@@ -160,7 +160,7 @@ class DirectionRetargeter:
         return np.clip(q, last - self.max_step, last + self.max_step)
 
     def _below_reach(self, upper: np.ndarray) -> np.ndarray:
-        """The upper arm (3,) unit, robot base frame) that the pan and elevations aim at:
+        """The upper arm ((3,) unit, robot base frame) that the pan and elevations aim at:
         ``upper`` itself where the robot can point that low; below its lowest elevation
         (a hanging arm) its horizontal part shrunk by (its length / the lowest elevation's
         cosine) ** ``hanging_power``. Such an arm's horizontal direction is ill-defined
