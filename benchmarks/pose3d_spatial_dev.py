@@ -5,6 +5,8 @@ swap one part of the lift's input for the truth (`docs/decisions/pose3d-lift.md`
     python benchmarks/pose3d_spatial_dev.py --cache /tmp/p3d --seeds 1-8
     python benchmarks/pose3d_spatial_dev.py --cache /tmp/p3d --seeds 1-8 --world \\
         --setting rules filter "filter:depth_noise=2" --oracles - sign px+len+sign
+    python benchmarks/pose3d_spatial_dev.py --cache /tmp/p3d --seeds 1-4 --size 640x480
+    python benchmarks/pose3d_spatial_dev.py --cache /tmp/p3d --seeds 1-8 --focal-scale 1.56
 
 Printed per setting and oracle row: per scenario, the elbow-flexion RMSE / the forearm
 direction error's median (degrees, pooled over the frames with a reading, as
@@ -22,6 +24,7 @@ import argparse
 import math
 import pickle
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -50,9 +53,12 @@ def seeds(text: str) -> list[int]:
     return chosen
 
 
-def cache(folder: Path, scenario: str, seed: int) -> dict[str, Any]:
-    """The clip's pose-model readings and truth, read once (rendering if need be)."""
-    path = folder / f"{scenario}_{seed}.pkl"
+def cache(folder: Path, scenario: str, seed: int, size: tuple[int, int] | None = None
+          ) -> dict[str, Any]:
+    """The clip's pose-model readings and truth, read once (rendering if need be);
+    ``size`` (width, height) pixels, None: the scenario's own."""
+    tag = "" if size is None else f"_{size[0]}x{size[1]}"
+    path = folder / f"{scenario}_{seed}{tag}.pkl"
     if path.exists():
         with path.open("rb") as file:
             return dict(pickle.load(file))
@@ -60,7 +66,10 @@ def cache(folder: Path, scenario: str, seed: int) -> dict[str, Any]:
     from imimic_gym.clips.scenarios import get_scenario
     from imimic_gym.estimators.pose.model import PoseModel
 
-    clip = load_clip(get_scenario(scenario).replace(seed=seed), progress=False)
+    spec = get_scenario(scenario).replace(seed=seed)
+    if size is not None:
+        spec = spec.replace(width=size[0], height=size[1])
+    clip = load_clip(spec, progress=False)
     assert clip.truth is not None
     model = PoseModel(video=True)
     data = {"bodies": [model(frame, i / clip.fps) for i, frame in enumerate(clip.frames)],
@@ -94,17 +103,21 @@ def true_lengths(points: np.ndarray) -> BoneLengths:
                        forearm=between(1, 2), hand=between(2, 3))
 
 
-def replay(data: dict[str, Any], setting: dict[str, Any] | None, oracles: set[str]
-           ) -> list[ArmPose | None]:
+def replay(data: dict[str, Any], setting: dict[str, Any] | None, oracles: set[str],
+           focal_scale: float = 1.0) -> list[ArmPose | None]:
     """The arm read each frame (None: no reading), as `Pose3DEstimator` reads it;
-    ``setting`` None: pose-world."""
-    camera = Intrinsics(**data["intrinsics"])
+    ``setting`` None: pose-world. ``focal_scale``: the estimator reads through a camera
+    whose focal length is that many times the true one (a wrong guess of an unknown
+    camera); the truth stays in the true camera's frame."""
+    true_camera = Intrinsics(**data["intrinsics"])
+    camera = replace(true_camera, fx=true_camera.fx * focal_scale,
+                     fy=true_camera.fy * focal_scale)
     chooser = ArmChooser(data["fps"])
     truth3d, truth2d = data["points3d"], data["points2d"]
     lengths = true_lengths(truth3d[0]) if "len" in oracles else None
     lifter = ArmLifter(camera, data["fps"], lengths=lengths, refine="len" not in oracles,
                        **(setting or {}))
-    focal = math.sqrt(camera.fx * camera.fy)
+    focal = math.sqrt(true_camera.fx * true_camera.fy)
     original = lift_module.shoulder_depth
     poses: list[ArmPose | None] = []
     try:
@@ -160,8 +173,13 @@ def main() -> None:
     parser.add_argument("--setting", nargs="*", default=["filter"])
     parser.add_argument("--oracles", nargs="*", default=["-"])
     parser.add_argument("--world", action="store_true", help="score pose-world too")
+    parser.add_argument("--focal-scale", type=float, default=1.0,
+                        help="the lift's camera's focal length over the true one (default 1)")
+    parser.add_argument("--size", type=lambda text: tuple(int(v) for v in text.split("x")),
+                        default=None, help="WIDTHxHEIGHT to render at (default: the "
+                        "scenario's own, 320x240)")
     args = parser.parse_args()
-    clips = {name: [cache(args.cache, name, seed) for seed in args.seeds]
+    clips = {name: [cache(args.cache, name, seed, args.size) for seed in args.seeds]
              for name in args.scenarios}
     runs: list[tuple[str, dict[str, Any] | None, set[str]]] = [
         (f"{text} {row}", parse_setting(text), set() if row == "-" else set(row.split("+")))
@@ -172,7 +190,7 @@ def main() -> None:
     for label, setting, oracles in runs:
         cells, upper = [], []
         for name in args.scenarios:
-            errors = np.concatenate([score(d, replay(d, setting, oracles))
+            errors = np.concatenate([score(d, replay(d, setting, oracles, args.focal_scale))
                                      for d in clips[name]])
             cells.append(f"{math.sqrt(np.mean(errors[:, 0] ** 2)):5.1f}/"
                          f"{np.median(errors[:, 1]):4.1f}")

@@ -402,6 +402,13 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
     with (out / "mimic.csv").open("w", newline="", buffering=1) as table:
         rows = csv.writer(table)
         spec = None if robot is None else imitate_env(env).arm
+        camera_fov = None
+        if robot is not None:  # the camera the 3-D reading assumed (given or guessed)
+            from imimic_gym.envs.imitate_video_3d import ImitateVideo3DEnv
+
+            inner = imitate_env(env)
+            assert isinstance(inner, ImitateVideo3DEnv)
+            camera_fov = round(inner.intrinsics().fov_deg, 2)
         rows.writerow(csv_header(env.n) if spec is None
                       else spatial_csv_header(spec.joint_names))
         try:
@@ -467,6 +474,7 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
         summary["servo_commands_sent"], summary["servo_errors"] = servo.sent, servo.errors
     if robot is not None:
         summary["robot"], summary["mapping"] = robot, mapping
+        summary["camera_fov_deg"] = camera_fov
     write_json(out / "mimic.json", summary)
     require_frames(frames, 0 if stopped or live else needed, source, why)
     return summary

@@ -622,3 +622,24 @@ def test_mimic_so101_writes_the_named_columns(person_mp4, tmp_path) -> None:
         assert row["arm"] in ("left", "right")
     # The rendered person moves their left arm, the label's side (Clip.meta["arm_side"]).
     assert {row["arm"] for row in read} == {"left"}
+    # Footage of an unknown camera: the lift assumed a typical one, and says which.
+    assert json.loads((tmp_path / "mimic.json").read_text())["camera_fov_deg"] == 60.0
+
+
+def test_mimic_so101_reads_the_arm_through_the_camera_given_by_fov(person_mp4,
+                                                                     tmp_path) -> None:
+    """``--fov`` is the camera the 3-D lift reads through: mimic.json names it, and the
+    same footage through a narrow and a wide camera gives other arm directions (the
+    perspective of each bone's ray) from the same keypoints."""
+    directions: dict[str, np.ndarray] = {}
+    for fov in ("30", "120"):
+        out = tmp_path / fov
+        assert main(["mimic", "--video", str(person_mp4), "--robot", "so101", "--fov", fov,
+                     "--out", str(out)]) == 0
+        assert json.loads((out / "mimic.json").read_text())["camera_fov_deg"] == float(fov)
+        rows = [row for row in read_csv(out / "mimic.csv") if float(row["eta"]) > 0]
+        assert len(rows) >= 10
+        directions[fov] = np.array([[float(row[f"{bone}_{axis}"]) for bone in ("upper", "fore")
+                                     for axis in "xyz"] for row in rows])
+    assert directions["30"].shape == directions["120"].shape
+    assert np.abs(directions["30"] - directions["120"]).max() > 0.05

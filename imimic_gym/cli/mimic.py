@@ -84,6 +84,7 @@ def _check_robot_options(args: argparse.Namespace) -> None:
     if not spatial:
         for option, given in (("--port", args.port is not None), ("--dry-run", args.dry_run),
                               ("--mapping", args.mapping != "mirror"),
+                              ("--fov", args.fov is not None),
                               ("--calibration", args.calibration is not None),
                               ("--robot-id", args.robot_id is not None)):
             if given:
@@ -98,6 +99,9 @@ def _check_robot_options(args: argparse.Namespace) -> None:
             raise CommandError(f"imimic mimic: {option} is the planar arm's; with --robot "
                                f"{args.robot} the arm is read in 3-D (--port drives the real "
                                f"SO-101)")
+    if args.fov is not None and not 10.0 <= args.fov <= 170.0:
+        raise CommandError(f"imimic mimic: --fov takes the camera's field of view across the "
+                           f"image's longer side, 10 to 170 degrees, got {args.fov:g}")
     if bus and args.calibration is None and args.robot_id is None:
         raise CommandError("imimic mimic: the SO-101's bus needs its LeRobot calibration: "
                            "--calibration FILE.json or --robot-id ID (the id you calibrated "
@@ -182,6 +186,13 @@ def _mimic(args: argparse.Namespace) -> int:
             servo.close()
         raise
     frames = cast(FrameStream, clip.frames)  # stream_video's clip streams its frames
+    if args.fov is not None:  # the camera the 3-D reading assumes (else a guessed one)
+        from dataclasses import asdict
+
+        from imimic_gym.spatial.camera import Intrinsics
+
+        clip.meta["intrinsics"] = asdict(Intrinsics.from_fov(args.fov, clip.width,
+                                                             clip.height))
     if args.robot is not None:  # the footage opened: now the arm, which then holds
         try:
             servo = _open_bus(args)
@@ -335,6 +346,12 @@ def add_mimic(sub: argparse._SubParsersAction) -> None:
                        help="how the person's arm maps onto the robot: " + "; ".join(
                            f"{name}: {m.description}" for name, m in MAPPINGS.items())
                        + " (default: %(default)s)")
+    robot.add_argument("--fov", type=finite, default=None, metavar="DEG",
+                       help="the camera's field of view across the image's longer side "
+                            "(horizontal for landscape video; not the diagonal that some "
+                            "webcams list), degrees, 10 to 170: the 3-D reading's "
+                            "perspective (default: 60, a typical webcam or phone, for "
+                            "footage whose camera is unknown)")
     robot.add_argument("--port", default=None, metavar="PORT",
                        help="also drive the real SO-101 on its bus adapter's port "
                             "(/dev/ttyACM0): goal positions through your LeRobot "

@@ -13,7 +13,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Intrinsics"]
+__all__ = ["GUESSED_FOV_DEG", "Intrinsics"]
+
+# Degrees across the longer side: the camera assumed for footage whose camera is unknown
+# (a phone's main camera, 26 mm equivalent, spans about 69; webcams about 50-70).
+GUESSED_FOV_DEG = 60.0
 
 
 @dataclass(frozen=True)
@@ -47,11 +51,28 @@ class Intrinsics:
         return cls(fx=f, fy=f, cx=width / 2, cy=height / 2, width=width, height=height)
 
     @classmethod
-    def guess(cls, width: int, height: int) -> Intrinsics:
-        """A typical webcam or phone (about 60 degrees across the longer side), for footage
-        whose camera is unknown."""
-        f = 0.5 * max(width, height) / math.tan(math.radians(60) / 2)
+    def from_fov(cls, fov_deg: float, width: int, height: int) -> Intrinsics:
+        """A camera with square pixels, its principal point at the image centre and a
+        field of view of ``fov_deg`` degrees across the image's longer side (a landscape
+        video's horizontal one, a portrait video's vertical one)."""
+        if not (math.isfinite(fov_deg) and 0 < fov_deg < 180):
+            raise ValueError(f"the field of view must be in (0, 180) degrees, got "
+                             f"{fov_deg!r}")
+        f = 0.5 * max(width, height) / math.tan(math.radians(fov_deg) / 2)
         return cls(fx=f, fy=f, cx=width / 2, cy=height / 2, width=width, height=height)
+
+    @classmethod
+    def guess(cls, width: int, height: int) -> Intrinsics:
+        """A typical webcam or phone (`GUESSED_FOV_DEG` across the longer side), for
+        footage whose camera is unknown."""
+        return cls.from_fov(GUESSED_FOV_DEG, width, height)
+
+    @property
+    def fov_deg(self) -> float:
+        """The field of view across the image's longer side, degrees."""
+        half, f = ((0.5 * self.width, self.fx) if self.width >= self.height
+                   else (0.5 * self.height, self.fy))
+        return math.degrees(2 * math.atan(half / f))
 
     def scaled(self, width: int, height: int) -> Intrinsics:
         """The same camera at another image size."""
