@@ -101,10 +101,14 @@ class ArmChooser:
 
     Motion is the forearm's image direction change (rad) between consecutive readings in
     which both its elbow and wrist are confident, summed over the last ``window_s``
-    seconds of the video (however many frames were read in them). It starts with the
-    more confident forearm; the other arm takes over once it has moved ``ratio`` times as
-    much and at least ``min_motion`` rad in the window, so a still arm's jitter never
-    steals the choice from the moving one.
+    seconds of the video (however many frames were read in them). It starts with an arm
+    that can be read (shoulder, elbow and wrist at ``min_confidence`` or more; of two, or
+    of none, the more confident forearm; ties: right), and until the arm it holds has
+    been read once, it takes a readable arm over an unreadable one each frame: an arm
+    that was never seen does not keep the choice from one that is. After that the other
+    arm takes over once it has moved ``ratio`` times as much and at least ``min_motion``
+    rad in the window, so a still arm's jitter never steals the choice from the moving
+    one.
     """
 
     def __init__(self, fps: float, arm: str = "auto", window_s: float = 1.0,
@@ -124,6 +128,7 @@ class ArmChooser:
         self.motion: dict[str, deque[tuple[float, float]]] = {
             side: deque() for side in ("left", "right")}  # (time s, turn rad)
         self.direction: dict[str, float | None] = {"left": None, "right": None}
+        self.read = {"left": False, "right": False}  # read once (all three confident)?
         self.calls = 0
 
     def __call__(self, body: BodyKeypoints, time_s: float | None = None) -> str:
@@ -151,9 +156,15 @@ class ArmChooser:
         if self.arm != "auto":
             return self.arm
         moved = {side: sum(turn for _, turn in values) for side, values in self.motion.items()}
-        if self.side is None:  # the first frame: the more confident forearm (ties: right)
-            seen = {side: float(body.arm(side)[1][1:].min()) for side in moved}
-            self.side = max(seen, key=lambda side: (seen[side], side == "right"))
+        confidence = {side: body.arm(side)[1] for side in moved}
+        readable = {side: float(c.min()) >= self.min_confidence
+                    for side, c in confidence.items()}
+        if self.side is None or not self.read[self.side]:  # never read: a readable arm
+            self.side = max(moved, key=lambda side: (readable[side],
+                                                     float(confidence[side][1:].min()),
+                                                     side == "right"))
+        for side, now_readable in readable.items():
+            self.read[side] = self.read[side] or now_readable
         other = "left" if self.side == "right" else "right"
         if moved[other] > max(self.ratio * moved[self.side], self.min_motion):
             self.side = other

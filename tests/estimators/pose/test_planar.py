@@ -153,6 +153,31 @@ def test_the_arm_that_moves_is_chosen() -> None:
         ArmChooser(fps=30.0, arm="both")
 
 
+def test_an_arm_never_read_does_not_keep_the_choice_from_one_that_is_read() -> None:
+    """dev04's start: neither arm can be read (the left forearm the more confident, under
+    0.5), then the right arm comes into view, still. The right is taken as soon as it can
+    be read, not once it has moved; after that the left coming into view changes
+    nothing, and neither does a read arm dropping out of view for a while."""
+    def seen(left: float, right: float) -> BodyKeypoints:
+        person = body()
+        for side, value in (("left", left), ("right", right)):
+            for joint in ("elbow", "wrist"):
+                person.confidence[KEYPOINTS.index(f"{side}_{joint}")] = value
+        return person
+
+    chooser = ArmChooser(fps=30.0)
+    assert chooser(seen(left=0.45, right=0.25)) == "left"
+    assert chooser(seen(left=0.45, right=0.25)) == "left"
+    assert [chooser(seen(left=0.3, right=0.9)) for _ in range(3)] == ["right"] * 3
+    assert [chooser(seen(left=0.9, right=0.9)) for _ in range(30)] == ["right"] * 30
+    assert [chooser(seen(left=0.9, right=0.2)) for _ in range(30)] == ["right"] * 30
+    # Reset: chosen afresh, and of two readable arms the more confident forearm.
+    chooser.reset()
+    assert chooser(seen(left=0.95, right=0.9)) == "left"
+    # A fixed arm is that arm, read or not.
+    assert ArmChooser(fps=30.0, arm="left")(seen(left=0.2, right=0.9)) == "left"
+
+
 def test_the_arms_motion_is_summed_over_seconds_not_readings() -> None:
     """Read every fifth frame (as pose-seeded DON reads), the window is still one second:
     the arm that stopped a second ago no longer counts, whichever rate the readings
