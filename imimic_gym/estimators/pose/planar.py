@@ -156,12 +156,12 @@ class ArmChooser:
         if self.arm != "auto":
             return self.arm
         moved = {side: sum(turn for _, turn in values) for side, values in self.motion.items()}
-        confidence = {side: body.arm(side)[1] for side in moved}
+        confident = {side: body.arm(side)[1] for side in moved}
         readable = {side: float(c.min()) >= self.min_confidence
-                    for side, c in confidence.items()}
+                    for side, c in confident.items()}
         if self.side is None or not self.read[self.side]:  # never read: a readable arm
             self.side = max(moved, key=lambda side: (readable[side],
-                                                     float(confidence[side][1:].min()),
+                                                     float(confident[side][1:].min()),
                                                      side == "right"))
         for side, now_readable in readable.items():
             self.read[side] = self.read[side] or now_readable
