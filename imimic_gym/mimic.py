@@ -82,8 +82,11 @@ class MimicLog:
         """Observer (`rollout.episode`): the estimate (``env.last_estimate``, an
         `EstimatorObservation`), the robot angle and the latency from asking for the frame
         to this call (the controller has answered; observers before this one, such as the
-        servo's, count too)."""
-        latency = 1000.0 * (time.perf_counter() - step.asked)
+        servo's, count too). A live source's frame read ahead (``ahead_when_drawn``)
+        counts from when it was asked of the source."""
+        ahead = getattr(env, "frame_asked", None)
+        asked = step.asked if ahead is None else min(step.asked, ahead)
+        latency = 1000.0 * (time.perf_counter() - asked)
         estimate = cast(EstimatorObservation, env).last_estimate
         assert estimate is not None  # every observation sets it
         self.time.append(step.info["frame_index"] / self.fps)
@@ -381,10 +384,12 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
                  gym.make("ImitateVideo3D-v0", clip=clip, robot=robot, mapping=mapping,
                           render_mode="rgb_array", render_height=preview_height))
         # A file's robot view draws while the estimator reads the frame (RenderAhead), and
-        # the estimator reads the next frame while this one is worked on; a camera's
-        # command is not held up by either, and its next frame is not known.
+        # the estimator reads the next frame while this one is worked on. A camera's next
+        # frame is read once this one's command is out, and read by the estimator while
+        # this frame's picture is drawn and written; nothing is drawn before the command.
         env = RegistryObservation(scene if live else RenderAhead(scene), estimator,
-                                  keep_frame=False, estimate_ahead=not live, **params)
+                                  keep_frame=False, estimate_ahead=True,
+                                  ahead_when_drawn=live, **params)
     except BaseException:  # release the camera or file before the error goes up
         if hasattr(clip.frames, "close"):
             clip.frames.close()

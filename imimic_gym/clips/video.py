@@ -516,6 +516,12 @@ class FrameStream:
     def __len__(self) -> int:
         return self._length
 
+    @property
+    def frames_read(self) -> int:
+        """How many frames have come from the source so far (asked for, or decoded
+        ahead and handed over)."""
+        return self._next_index
+
     def __getitem__(self, index: int) -> np.ndarray:
         if not isinstance(index, (int, np.integer)) or index < 0:
             raise TypeError(f"a FrameStream takes non-negative int indices, got {index!r}")

@@ -336,18 +336,20 @@ class ImitateVideoEnv(gym.Env, EzPickle):
         return (frames.fresh(index) if isinstance(frames, FrameStream)
                 else frames[index].copy())
 
-    def upcoming_frame(self) -> np.ndarray | None:
+    def upcoming_frame(self, wait: bool = False) -> np.ndarray | None:
         """The (H, W, 3) uint8 frame that the next `step` will observe: the very array
         that its observation's ``frame`` will be, which nothing else holds (read it, do not
         change it). None where it is not known ahead: after the clip's last frame, before
-        `reset`, on a live source (a camera's frames are read when asked for, so that each
-        is the newest), or where the stream ends or fails there (the step then says so)."""
+        `reset`, or where the stream ends or fails there (the step then says so). A live
+        source's (a camera's) next frame is read only with ``wait`` (it waits for the
+        source to deliver it; a caller asks once the step's command is out, so that the
+        wait delays nothing the robot needs); without, None there."""
         if self.frame_index is None or self.frame_index >= self._last_frame:
             return None
         index = self.frame_index + 1
         if self._upcoming is not None and self._upcoming[0] == index:
             return self._upcoming[1]
-        if isinstance(self._frames, FrameStream) and self._frames.reader.live:
+        if isinstance(self._frames, FrameStream) and self._frames.reader.live and not wait:
             return None
         try:
             frame = self._observed_frame(index)

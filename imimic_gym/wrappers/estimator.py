@@ -8,6 +8,7 @@ publishes (`ImitateVideoEnv.estimator_context`): `RegistryObservation`.
 
 from __future__ import annotations
 
+import time
 from typing import Any, cast
 
 import gymnasium as gym
@@ -101,10 +102,17 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
             where it is not known ahead, a camera's) is handed over to it before, so that
             the estimator reads it while the caller works on this one. The estimates are
             the same. Nothing between the env and this wrapper may replace the frame.
+        ahead_when_drawn: with ``estimate_ahead``, the next frame is taken when the
+            picture is drawn (`render`, after the step and the command the caller sent
+            from it), not when the observation is made: a camera's next frame, which
+            ``upcoming_frame(wait=True)`` waits for. The pose model then reads it while
+            this frame's picture is drawn and written, and the wait holds up no command.
+            Without a `render` each step, frames are estimated when observed, as without
+            ``estimate_ahead``.
     """
 
     def __init__(self, env: gym.Env, estimator: Estimator, keep_frame: bool = True,
-                 estimate_ahead: bool = False) -> None:
+                 estimate_ahead: bool = False, ahead_when_drawn: bool = False) -> None:
         space = env.observation_space
         if not isinstance(space, spaces.Dict) or "frame" not in space.spaces:
             raise TypeError(
@@ -118,7 +126,8 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
         # Recorded so gym.make(env.spec) can rebuild the stack; a subclass that records
         # its own arguments first keeps those (the first record wins).
         gym.utils.RecordConstructorArgs.__init__(self, estimator=estimator, keep_frame=keep_frame,
-                                                 estimate_ahead=estimate_ahead)
+                                                 estimate_ahead=estimate_ahead,
+                                                 ahead_when_drawn=ahead_when_drawn)
         gym.ObservationWrapper.__init__(self, env)
         self.estimator, self.keep_frame = estimator, keep_frame
         action_shape = env.action_space.shape
@@ -141,10 +150,15 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
         prefetch = getattr(estimator, "prefetch", None)
         self._prefetch = prefetch if estimate_ahead and callable(prefetch) else None
         self._upcoming = env.get_wrapper_attr("upcoming_frame") if self._prefetch else None
+        self._ahead_when_drawn = ahead_when_drawn
         self._ahead: np.ndarray | None = None  # the frame handed to prefetch last
+        self._ahead_asked: float | None = None  # when render asked the env for it
+        # `time.perf_counter()` when the last observation's frame was asked of the env
+        # (read ahead by `render`, ``ahead_when_drawn``); None: asked for by the step.
+        self.frame_asked: float | None = None
 
     def reset(self, **kwargs: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        self._ahead = None
+        self._ahead = self._ahead_asked = None
         self.estimator.reset()
         return super().reset(**kwargs)
 
@@ -161,7 +175,14 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
     def render(self) -> np.ndarray | None:
         """The env's (H, 2W, 3) uint8 picture, video left and robot right, with what the
         estimator sees drawn on the video: the estimated links from their keypoints, and
-        the angles and trust factor as text."""
+        the angles and trust factor as text. With ``ahead_when_drawn``, the next frame
+        is first read (waiting for a live source) and handed to the estimator."""
+        if self._ahead_when_drawn and self._prefetch is not None and self._upcoming:
+            asked = time.perf_counter()
+            ahead = self._upcoming(wait=True)
+            if ahead is not None and ahead is not self._ahead:
+                self._prefetch(ahead)
+                self._ahead, self._ahead_asked = ahead, asked
         picture = cast("np.ndarray | None", self.env.render())  # render_mode="rgb_array"
         if picture is None or self.last_estimate is None:
             return picture
@@ -176,7 +197,9 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
 
     def observation(self, observation: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         frame = observation["frame"]
-        if self._prefetch is not None and self._upcoming is not None:
+        self.frame_asked = self._ahead_asked if frame is self._ahead else None
+        if (self._prefetch is not None and self._upcoming is not None
+                and not self._ahead_when_drawn):
             if frame is not self._ahead:  # the first frame, or one not known ahead
                 self._prefetch(frame)
             self._ahead = self._upcoming()
@@ -194,15 +217,17 @@ class RegistryObservation(EstimatorObservation):
     (`estimators.registry`), built from the env's `EstimatorContext` with ``params``.
     A spatial estimator (on ``ImitateVideo3D-v0``) is read through the env's retargeter
     (`wrappers.spatial.RetargetedEstimator`): the estimate holds the robot's joint
-    targets. ``estimate_ahead``: as in `EstimatorObservation`. Raises
+    targets. ``estimate_ahead``, ``ahead_when_drawn``: as in `EstimatorObservation`. Raises
     `UnsupportedClipError` for a clip it cannot follow. The name and
     parameters, not the estimator, are what ``gym.make(env.spec)`` and a vector env's
     sub-processes rebuild it from."""
 
     def __init__(self, env: gym.Env, name: str, keep_frame: bool = True,
-                 *, estimate_ahead: bool = False, **params: Any) -> None:
+                 *, estimate_ahead: bool = False, ahead_when_drawn: bool = False,
+                 **params: Any) -> None:
         gym.utils.RecordConstructorArgs.__init__(self, name=name, keep_frame=keep_frame,
-                                                 estimate_ahead=estimate_ahead, **params)
+                                                 estimate_ahead=estimate_ahead,
+                                                 ahead_when_drawn=ahead_when_drawn, **params)
         context = estimator_context(env)
         estimator: Estimator
         if get_estimator(name).spatial:
@@ -214,7 +239,8 @@ class RegistryObservation(EstimatorObservation):
                 env.get_wrapper_attr("retarget"), context.fps, start=(low + high) / 2)
         else:
             estimator = build_estimator(name, context, **params)
-        super().__init__(env, estimator, keep_frame=keep_frame, estimate_ahead=estimate_ahead)
+        super().__init__(env, estimator, keep_frame=keep_frame, estimate_ahead=estimate_ahead,
+                         ahead_when_drawn=ahead_when_drawn)
 
 
 class DONObservation(EstimatorObservation):

@@ -201,3 +201,66 @@ def test_estimating_ahead_gives_the_same_estimates_and_stops_its_thread(
         runs[ahead] = np.array(seen)
     assert len(runs[True]) == 20 and (runs[True][:, -2] > 0).sum() >= 8  # trust
     np.testing.assert_array_equal(runs[True], runs[False])
+
+
+@pytest.mark.parametrize("estimator", ["pose", "pose3d"])
+def test_a_cameras_next_frame_is_read_once_the_command_is_out_and_estimated_while_drawing(
+        person_mp4, estimator: str) -> None:
+    """A live source (a URL, as a camera): with ``ahead_when_drawn`` the step reads only
+    its own frame (so the command waits for nothing more), `render` then reads the next
+    one and hands it to the pose model on its thread, and every observation is the plain
+    wrapper's (no estimating ahead), bit for bit. Without a `render`, nothing is read
+    ahead."""
+    from imimic_gym.clips.video import StreamEndedError, stream_video
+    from imimic_gym.estimators.pose.planar import human_joint_ranges
+    from imimic_gym.wrappers import RegistryObservation
+
+    runs = {}
+    for drawn in (False, True):
+        clip = stream_video(f"file://{person_mp4}", joint_ranges=human_joint_ranges(1))
+        assert clip.meta["source"] == "camera"
+        scene = (gym.make("ImitateVideo-v0", clip=clip, render_mode="rgb_array")
+                 if estimator == "pose" else
+                 gym.make("ImitateVideo3D-v0", clip=clip, robot="so101",
+                          render_mode="rgb_array"))
+        env = RegistryObservation(scene, estimator, keep_frame=False, estimate_ahead=drawn,
+                                  ahead_when_drawn=drawn)
+        controller = PDController(env, EstimateTarget(env))
+        obs, _ = env.reset(seed=0)
+        env.render()  # as `imimic mimic` draws every frame, the first too
+        seen, asked = [obs["estimate"]], []
+        while True:
+            try:
+                obs, _, _, _, info = env.step(controller(obs))
+            except StreamEndedError:  # the live source ran dry: a camera that stopped
+                break
+            assert clip.frames.frames_read == info["frame_index"] + 1
+            asked.append(env.frame_asked)
+            seen.append(obs["estimate"])
+            env.render()
+            assert clip.frames.frames_read == info["frame_index"] + 1 + (
+                drawn and info["frame_index"] < 19)
+        model = (env.estimator.model if estimator == "pose"
+                 else env.estimator.spatial.model)
+        # The pose model's own thread ran only where frames were handed over ahead.
+        assert (model.thread is not None) == drawn
+        if drawn:  # each frame after the first was asked of the source by render
+            assert len(asked) == 19 and all(a is not None for a in asked)
+        else:
+            assert asked == [None] * 19
+        env.close()
+        clip.frames.close()
+        runs[drawn] = np.array(seen)
+    assert len(runs[True]) == 20 and (runs[True][:, -2] > 0).sum() >= 8  # trust
+    np.testing.assert_array_equal(runs[True], runs[False])
+
+    # Without render calls, ahead_when_drawn reads nothing ahead.
+    clip = stream_video(f"file://{person_mp4}", joint_ranges=human_joint_ranges(1))
+    env = RegistryObservation(gym.make("ImitateVideo-v0", clip=clip), "pose",
+                              keep_frame=False, estimate_ahead=True, ahead_when_drawn=True)
+    obs, _ = env.reset(seed=0)
+    for _ in range(3):
+        obs, _, _, _, info = env.step(PDController(env, EstimateTarget(env))(obs))
+        assert clip.frames.frames_read == info["frame_index"] + 1
+    env.close()
+    clip.frames.close()
