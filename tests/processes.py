@@ -3,10 +3,12 @@ when the wait runs out, it never hangs."""
 
 from __future__ import annotations
 
+import socket
 import subprocess
 import threading
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 STOP_S = 30.0  # a killed process and its pipes: gone well within this
 
@@ -47,3 +49,33 @@ def stop(run: subprocess.Popen) -> None:
     if run.poll() is None:
         run.kill()
         run.wait(timeout=STOP_S)
+
+
+def _listening(port: int) -> bool:
+    """True once a socket listens on local TCP ``port`` (Linux's /proc/net/tcp; no probe
+    connection, which a one-client server would take for its client)."""
+    rows = Path("/proc/net/tcp").read_text().splitlines()[1:]
+    return any(row.split()[1].endswith(f":{port:04X}") and row.split()[3] == "0A"
+               for row in rows)
+
+
+def stream_live(path: Path, seconds: float = 10.0) -> tuple[subprocess.Popen, str]:
+    """``path`` played at its own frame rate by ffmpeg (``-re``, not re-encoded) as an
+    MPEG-TS stream to the first client of a local TCP port, as an IP camera sends one:
+    the player (for the caller's `stop`) and the stream's URL, once it listens (within
+    ``seconds``, else AssertionError)."""
+    import imageio_ffmpeg
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = int(probe.getsockname()[1])
+    player = subprocess.Popen([imageio_ffmpeg.get_ffmpeg_exe(), "-loglevel", "quiet", "-re",
+                               "-i", str(path), "-c", "copy", "-f", "mpegts",
+                               f"tcp://127.0.0.1:{port}?listen=1"])
+    deadline = time.monotonic() + seconds
+    while not _listening(port):
+        if player.poll() is not None or time.monotonic() > deadline:
+            stop(player)
+            raise AssertionError(f"ffmpeg did not listen on port {port} within {seconds} s")
+        time.sleep(0.05)
+    return player, f"tcp://127.0.0.1:{port}"

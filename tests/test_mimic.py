@@ -23,7 +23,7 @@ from imimic_gym.estimators.pose.planar import human_joint_ranges
 from imimic_gym.metrics import angle_rmse_deg
 from imimic_gym.mimic import MimicLog, run_mimic
 from imimic_gym.servo import ServoBridge
-from tests.processes import poll_until, stop
+from tests.processes import poll_until, stop, stream_live
 
 
 def read_csv(path) -> list[dict[str, str]]:
@@ -500,6 +500,36 @@ def test_ctrl_c_stops_the_command_with_130_and_as_many_frames_in_video_as_in_jso
         _, err = run.communicate(timeout=120)
     finally:
         stop(run)
+    assert run.returncode == 130, err[-2000:]
+    summary = json.loads((out / "mimic.json").read_text())
+    assert summary["ended"] == "stopped by Ctrl-C" and 10 <= summary["frames"] < 90
+    video = cv2.VideoCapture(str(out / "mimic.mp4"))
+    try:
+        assert int(video.get(cv2.CAP_PROP_FRAME_COUNT)) == summary["frames"]
+    finally:
+        video.release()
+    assert len(read_csv(out / "mimic.csv")) == summary["frames"]
+
+
+def test_ctrl_c_on_a_live_stream_stops_with_130_and_as_many_frames_in_video_as_in_json(
+        servo_mp4, tmp_path) -> None:
+    """A real SIGINT to `imimic mimic --camera URL` reading a live stream (ffmpeg plays
+    the clip at its own speed over local TCP): the next frame is read and estimated
+    while each picture is drawn, and a Ctrl-C landing anywhere in that still ends the
+    run with 130 and the video, the CSV and the JSON at the same frame."""
+    player, url = stream_live(servo_mp4)
+    out = tmp_path / "out"
+    run = subprocess.Popen([sys.executable, "-m", "imimic_gym.cli", "mimic", "--camera", url,
+                            "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                           text=True, env={**os.environ, "MUJOCO_GL": "egl"})
+    try:
+        poll_until(lambda: (out / "mimic.csv").exists() and len(read_csv(out / "mimic.csv")) >= 10,
+                   run, 120, "ten frames in mimic.csv")
+        run.send_signal(signal.SIGINT)
+        _, err = run.communicate(timeout=120)
+    finally:
+        stop(run)
+        stop(player)
     assert run.returncode == 130, err[-2000:]
     summary = json.loads((out / "mimic.json").read_text())
     assert summary["ended"] == "stopped by Ctrl-C" and 10 <= summary["frames"] < 90
