@@ -344,9 +344,10 @@ is drawn and written. `--robot so101` (pose3d) ran at
 {live['so101']['frames_per_s']:.1f} frames/s after its first frame, the planar `imimic
 mimic` (pose) at {live['planar']['frames_per_s']:.1f} (medians of
 {len(live['so101']['runs'])} runs each, interleaved; so101 {_rates(live['so101'])},
-planar {_rates(live['planar'])}). Over the stream's own rate: the frames that queued
-while the run started (the pose model's loading) kept the loop fed to the end, so this
-is the rate the loop can go at; one under the stream's would fall ever further behind.
+planar {_rates(live['planar'])}). Over the stream's own rate: frames were waiting
+throughout (those sent while the run started, the models' loading, and ffmpeg's output
+is not strictly paced), so this is the rate the loop can go at; one under the stream's
+would fall ever further behind.
 Median latency, from asking the stream for a frame to the robot's command (a frame's
 wait in the queue is not in it):
 {live['so101']['latency_ms_median']:.0f} and {live['planar']['latency_ms_median']:.0f} ms.
