@@ -3,6 +3,7 @@ when the wait runs out, it never hangs."""
 
 from __future__ import annotations
 
+import signal
 import socket
 import subprocess
 import threading
@@ -27,6 +28,29 @@ def poll_until(condition: Callable[[], bool], run: subprocess.Popen, seconds: fl
         if time.monotonic() > deadline:
             raise AssertionError(f"no {what} within {seconds} s")
         time.sleep(0.05)
+
+
+# For a Python command a test starts: faulthandler on, so that `wait_for_exit` can have it
+# print every thread's stack when it hangs.
+DUMPS_STACKS = {"PYTHONFAULTHANDLER": "1"}
+
+
+def wait_for_exit(run: subprocess.Popen, seconds: float) -> tuple[str, str]:
+    """``run.communicate()`` within ``seconds``. If it has not ended by then, SIGABRT
+    makes a Python command started with `DUMPS_STACKS` in its environment print every
+    thread's stack, and AssertionError carries that (the end of stderr), so a hang that
+    CI meets once says where it hung."""
+    try:
+        return run.communicate(timeout=seconds)
+    except subprocess.TimeoutExpired:
+        run.send_signal(signal.SIGABRT)
+        try:
+            _, stderr = run.communicate(timeout=STOP_S)
+        except subprocess.TimeoutExpired:
+            run.kill()
+            _, stderr = run.communicate(timeout=STOP_S)
+        raise AssertionError(f"the command did not end within {seconds} s; its stacks:\n"
+                             f"{(stderr or '')[-8000:]}") from None
 
 
 def first_line(run: subprocess.Popen, seconds: float) -> str:

@@ -39,3 +39,27 @@ def test_no_test_waits_on_a_process_or_thread_without_a_deadline() -> None:
     endless = [f"{path.relative_to(TESTS)}:{line}" for path in sorted(TESTS.rglob("*.py"))
                for line in waits_without_deadline(path.read_text())]
     assert endless == []
+
+
+def test_a_command_that_hangs_fails_the_test_with_its_stacks() -> None:
+    """`processes.wait_for_exit`: a Python command that outlives its deadline is stopped
+    and the failure shows where each of its threads was."""
+    import subprocess
+    import sys
+
+    import pytest
+
+    from tests.processes import DUMPS_STACKS, stop, wait_for_exit
+
+    run = subprocess.Popen([sys.executable, "-c", "import time\ndef stuck():\n    "
+                            "time.sleep(60)\nstuck()\n"], stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True, env=DUMPS_STACKS)
+    try:
+        with pytest.raises(AssertionError, match="did not end within 1 s") as failure:
+            wait_for_exit(run, 1)
+    finally:
+        stop(run)
+    assert "in stuck" in str(failure.value)
+    assert wait_for_exit(subprocess.Popen([sys.executable, "-c", "print('done')"],
+                                          stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                          text=True), 60)[0] == "done\n"

@@ -23,7 +23,7 @@ from imimic_gym.estimators.pose.planar import human_joint_ranges
 from imimic_gym.metrics import angle_rmse_deg
 from imimic_gym.mimic import MimicLog, run_mimic
 from imimic_gym.servo import ServoBridge
-from tests.processes import poll_until, stop, stream_live
+from tests.processes import DUMPS_STACKS, poll_until, stop, stream_live, wait_for_exit
 
 
 def read_csv(path) -> list[dict[str, str]]:
@@ -492,12 +492,12 @@ def test_ctrl_c_stops_the_command_with_130_and_as_many_frames_in_video_as_in_jso
     run = subprocess.Popen([sys.executable, "-m", "imimic_gym.cli", "mimic", "--video",
                             str(servo_mp4), "--estimator", estimator, "--realtime", "--out",
                             str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                           text=True, env={**os.environ, "MUJOCO_GL": "egl"})
+                           text=True, env={**os.environ, "MUJOCO_GL": "egl", **DUMPS_STACKS})
     try:
         poll_until(lambda: (out / "mimic.csv").exists() and len(read_csv(out / "mimic.csv")) >= 10,
                    run, 120, "ten frames in mimic.csv")
         run.send_signal(signal.SIGINT)
-        _, err = run.communicate(timeout=120)
+        _, err = wait_for_exit(run, 120)
     finally:
         stop(run)
     assert run.returncode == 130, err[-2000:]
@@ -521,12 +521,12 @@ def test_ctrl_c_on_a_live_stream_stops_with_130_and_as_many_frames_in_video_as_i
     out = tmp_path / "out"
     run = subprocess.Popen([sys.executable, "-m", "imimic_gym.cli", "mimic", "--camera", url,
                             "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                           text=True, env={**os.environ, "MUJOCO_GL": "egl"})
+                           text=True, env={**os.environ, "MUJOCO_GL": "egl", **DUMPS_STACKS})
     try:
         poll_until(lambda: (out / "mimic.csv").exists() and len(read_csv(out / "mimic.csv")) >= 10,
                    run, 120, "ten frames in mimic.csv")
         run.send_signal(signal.SIGINT)
-        _, err = run.communicate(timeout=120)
+        _, err = wait_for_exit(run, 120)
     finally:
         stop(run)
         stop(player)

@@ -7,6 +7,9 @@ run once; docs/decisions/evaluation-protocol.md lists the seeds already used up.
 
 from __future__ import annotations
 
+import atexit
+import shutil
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +22,14 @@ TEST_POOL = tuple(range(40_000, 40_030))
 QUICK_SEEDS = (0, 1)  # a quick run checks a suite works, on development clips
 WORST = 3
 RESULTS = Path(__file__).resolve().parents[1] / "results"
+
+
+def work_folder(prefix: str) -> Path:
+    """A new folder in the system's temporary folder for a suite's files (1080p copies,
+    mimic outputs, labels), deleted when the benchmark process ends."""
+    folder = Path(tempfile.mkdtemp(prefix=prefix))
+    atexit.register(shutil.rmtree, folder, True)
+    return folder
 
 
 def sweep(name: str, cells: list[Cell], args: Any) -> list[dict[str, Any]]:

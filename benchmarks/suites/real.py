@@ -46,6 +46,7 @@ from typing import Any
 
 import cv2
 import numpy as np
+from suites.pool import work_folder
 
 from imimic_gym.bench import machine
 from imimic_gym.clips.cache import load_clip
@@ -81,7 +82,7 @@ def photo_annotations(quick: bool) -> Path:
         keep = {image["id"] for image in data["images"][:8]}
         data["images"] = [i for i in data["images"] if i["id"] in keep]
         data["annotations"] = [a for a in data["annotations"] if a["image_id"] in keep]
-        annotations = Path(tempfile.mkdtemp(prefix="imimic_photos_")) / "few.json"
+        annotations = work_folder("imimic_photos_") / "few.json"
         annotations.write_text(json.dumps(data))
     return annotations
 
@@ -213,7 +214,7 @@ def make_1080p(source: Path, out: Path) -> Path:
 def hd(quick: bool) -> dict[str, Any]:
     from imimic_gym.mimic import run_mimic
 
-    work = Path(tempfile.mkdtemp(prefix="imimic_real_"))
+    work = work_folder("imimic_real_")
     path = make_1080p(REALDATA / "videos" / "ta_chi.mp4", work / "ta_chi_1080p.mp4")
     decode = decode_seconds_per_frame(path)
     with VideoReader(path).open() as reader:
@@ -276,7 +277,7 @@ def camera_cnn(quick: bool) -> dict[str, Any]:
 
     rows = []
     for path in sorted((REALDATA / "videos").glob("*.mp4")):
-        work = Path(tempfile.mkdtemp(prefix=f"imimic_label_{path.stem}_"))
+        work = work_folder(f"imimic_label_{path.stem}_")
         summary = label_video(path, work, progress=False)
         arms = read_annotations(work / "labels.json")  # frame order: ids follow frames
         cut = round(0.7 * len(arms))

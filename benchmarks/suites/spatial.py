@@ -22,12 +22,21 @@ re-encoding) as an MPEG-TS stream on a local TCP port, as an IP camera sends one
 
 from __future__ import annotations
 
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from suites.pool import QUICK_SEEDS, TEST_POOL, ci, pool_text, spread, sweep, table, worst
+from suites.pool import (
+    QUICK_SEEDS,
+    TEST_POOL,
+    ci,
+    pool_text,
+    spread,
+    sweep,
+    table,
+    work_folder,
+    worst,
+)
 
 from imimic_gym.bench import machine
 from imimic_gym.sweep import Cell
@@ -116,7 +125,7 @@ def mimic(quick: bool) -> dict[str, Any]:
     source = REALDATA / "videos" / "ta_chi.mp4"
     if not source.exists():
         return {"skipped": f"{source} not present"}
-    work = Path(tempfile.mkdtemp(prefix="imimic_spatial_"))
+    work = work_folder("imimic_spatial_")
     path = make_1080p(source, work / "ta_chi_1080p.mp4")
     decode = decode_seconds_per_frame(path)
     result: dict[str, Any] = {"clip": "ta_chi.mp4 at 1920x1080 (H.264, CRF 18)",
@@ -187,7 +196,7 @@ def camera(quick: bool) -> dict[str, Any]:
     source = REALDATA / "videos" / "ta_chi.mp4"
     if not source.exists():
         return {"skipped": f"{source} not present"}
-    work = Path(tempfile.mkdtemp(prefix="imimic_camera_"))
+    work = work_folder("imimic_camera_")
     path = make_1080p(source, work / "ta_chi_1080p.mp4")
     seconds = 2.0 if quick else 9.0  # of the clip's 10 s, so the stream outlasts the run
     result: dict[str, Any] = {"clip": "ta_chi.mp4 at 1920x1080 (H.264, CRF 18), streamed "
