@@ -483,14 +483,11 @@ def test_a_frame_whose_drawing_ctrl_c_stops_is_in_no_output(servo_mp4, tmp_path)
     assert len(log.time) == len(read_csv(tmp_path / "mimic.csv")) == 6
 
 
-@pytest.mark.parametrize("estimator", ["don", "pose"])  # pose: a model thread reads ahead
-def test_ctrl_c_stops_the_command_with_130_and_as_many_frames_in_video_as_in_json(
-        servo_mp4, tmp_path, estimator: str) -> None:
-    """A real SIGINT to `imimic mimic --video` mid-run (played at its own speed, 3 s):
-    exit code 130 as the other commands, and the video holds the frames the JSON counts."""
-    out = tmp_path / "out"
-    run = subprocess.Popen([sys.executable, "-m", "imimic_gym.cli", "mimic", "--video",
-                            str(servo_mp4), "--estimator", estimator, "--realtime", "--out",
+def ctrl_c_mimic_at_the_tenth_frame(source: list[str], out) -> None:
+    """`imimic mimic` on ``source`` (its options: --video F ..., --camera URL), a real
+    SIGINT once ten frames are in mimic.csv: exit code 130 as the other commands, and the
+    video, the CSV and the JSON all hold the same frames (of the 90 there are)."""
+    run = subprocess.Popen([sys.executable, "-m", "imimic_gym.cli", "mimic", *source, "--out",
                             str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                            text=True, env={**os.environ, "MUJOCO_GL": "egl", **DUMPS_STACKS})
     try:
@@ -511,34 +508,25 @@ def test_ctrl_c_stops_the_command_with_130_and_as_many_frames_in_video_as_in_jso
     assert len(read_csv(out / "mimic.csv")) == summary["frames"]
 
 
+@pytest.mark.parametrize("estimator", ["don", "pose"])  # pose: a model thread reads ahead
+def test_ctrl_c_stops_the_command_with_130_and_as_many_frames_in_video_as_in_json(
+        servo_mp4, tmp_path, estimator: str) -> None:
+    """A real SIGINT to `imimic mimic --video` mid-run (played at its own speed, 3 s)."""
+    ctrl_c_mimic_at_the_tenth_frame(["--video", str(servo_mp4), "--estimator", estimator,
+                                     "--realtime"], tmp_path / "out")
+
+
 def test_ctrl_c_on_a_live_stream_stops_with_130_and_as_many_frames_in_video_as_in_json(
         servo_mp4, tmp_path) -> None:
     """A real SIGINT to `imimic mimic --camera URL` reading a live stream (ffmpeg plays
     the clip at its own speed over local TCP): the next frame is read and estimated
     while each picture is drawn, and a Ctrl-C landing anywhere in that still ends the
-    run with 130 and the video, the CSV and the JSON at the same frame."""
+    run as on a file."""
     player, url = stream_live(servo_mp4)
-    out = tmp_path / "out"
-    run = subprocess.Popen([sys.executable, "-m", "imimic_gym.cli", "mimic", "--camera", url,
-                            "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                           text=True, env={**os.environ, "MUJOCO_GL": "egl", **DUMPS_STACKS})
     try:
-        poll_until(lambda: (out / "mimic.csv").exists() and len(read_csv(out / "mimic.csv")) >= 10,
-                   run, 120, "ten frames in mimic.csv")
-        run.send_signal(signal.SIGINT)
-        _, err = wait_for_exit(run, 120)
+        ctrl_c_mimic_at_the_tenth_frame(["--camera", url], tmp_path / "out")
     finally:
-        stop(run)
         stop(player)
-    assert run.returncode == 130, err[-2000:]
-    summary = json.loads((out / "mimic.json").read_text())
-    assert summary["ended"] == "stopped by Ctrl-C" and 10 <= summary["frames"] < 90
-    video = cv2.VideoCapture(str(out / "mimic.mp4"))
-    try:
-        assert int(video.get(cv2.CAP_PROP_FRAME_COUNT)) == summary["frames"]
-    finally:
-        video.release()
-    assert len(read_csv(out / "mimic.csv")) == summary["frames"]
 
 
 def without_latency(path) -> list[list[str]]:

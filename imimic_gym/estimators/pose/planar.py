@@ -139,8 +139,10 @@ class ArmChooser:
             raise ValueError(f"ArmChooser: time_s must be a finite number of seconds, "
                              f"got {time_s!r}")
         self.calls += 1
+        confident: dict[str, np.ndarray] = {}  # each arm's (3,) keypoint confidences
         for side in ("left", "right"):
             points, confidence = body.arm(side)
+            confident[side] = confidence
             motion = self.motion[side]
             while motion and motion[0][0] <= now - self.window_s:
                 motion.popleft()
@@ -156,7 +158,6 @@ class ArmChooser:
         if self.arm != "auto":
             return self.arm
         moved = {side: sum(turn for _, turn in values) for side, values in self.motion.items()}
-        confident = {side: body.arm(side)[1] for side in moved}
         readable = {side: float(c.min()) >= self.min_confidence
                     for side, c in confident.items()}
         if self.side is None or not self.read[self.side]:  # never read: a readable arm
