@@ -26,8 +26,14 @@ before the estimator reads the frame (`wrappers.RenderAhead`, counted), and an e
 with a ``prefetch`` hook (the pose estimators) reads each frame on a thread of its own
 while the frame before is lifted, controlled, drawn and written (``estimate_ahead``,
 `wrappers.EstimatorObservation`: only the wait for what is left of it counted), so that
-the two cores share the work; a camera's frame is read when asked for, nothing is drawn
-before the command and nothing is estimated ahead.
+the two cores share the work. A camera's or stream's frame is read when asked for and
+nothing is drawn before the command; its next frame is read once the command is out and
+read by the pose model while this frame's picture is drawn. Its frames that queued up
+while the run started, or later because the loop went slower than the source, are passed
+over (`clips.video.FrameStream.keep_live`), so the robot follows the picture of now:
+mimic.json counts them (``frames_passed_over``) and says how long after each frame's
+arrival its command was ready (``behind_stream_ms_median``, ``_max``: unlike the latency,
+this counts a frame's wait in a queue).
 """
 
 from __future__ import annotations
@@ -77,6 +83,11 @@ class MimicLog:
     latency_ms: list[float] = field(default_factory=list)
     first_done: float | None = None  # perf_counter when the first frame was done
     last_done: float | None = None
+    # A live source's stream clock (`FrameStream.clock`): frame index -> `StreamClock`.
+    clock: Any = None
+    # Per frame: (command ready, frame read), each less the frame's stream time (s); None
+    # without a clock.
+    stream_offsets: list[tuple[float, float] | None] = field(default_factory=list)
 
     def on_step(self, env: gym.Env, step: Step) -> None:
         """Observer (`rollout.episode`): the estimate (``env.last_estimate``, an
@@ -98,14 +109,28 @@ class MimicLog:
         self.last_done = time.perf_counter()
         if self.first_done is None:
             self.first_done = self.last_done
+        stamp = None if self.clock is None else self.clock(step.info["frame_index"])
+        self.stream_offsets.append(None if stamp is None else (
+            self.last_done - stamp.stream_s, stamp.read_at - stamp.stream_s))
 
     def drop_last(self) -> None:
         """Forget the last frame logged (one whose outputs were not all written)."""
         for series in (self.time, self.angles, self.robot, self.trust, self.predicted,
-                       self.latency_ms):
+                       self.latency_ms, self.stream_offsets):
             del series[-1:]
         if not self.time:
             self.first_done = self.last_done = None
+
+    def behind_stream_ms(self) -> np.ndarray:
+        """Per frame with a stream clock: how long after the frame could first have been
+        read its command was ready (ms). A frame's earliest read is taken from the
+        run's promptest read (the least read time less stream time; a source sending in
+        real time), so a frame that waited in a queue counts its wait, which the
+        latency does not. A lower bound if no frame of the run was read promptly."""
+        offsets = np.asarray([o for o in self.stream_offsets if o is not None]).reshape(-1, 2)
+        if not len(offsets):
+            return np.zeros(0)
+        return 1000.0 * (offsets[:, 0] - offsets[:, 1].min())
 
     def trajectory(self) -> Trajectory:
         """The run as a `Trajectory` whose target is the estimate (for `plot_tracking`)."""
@@ -397,7 +422,8 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     controller = PDController(env, EstimateTarget(env))
-    log = MimicLog(fps=float(clip.fps))
+    log = MimicLog(fps=float(clip.fps), clock=getattr(clip.frames, "clock", None) if live
+                   else None)
     bar = tqdm(total=len(clip) if known_length else None, unit="frame", disable=not progress,
                desc=f"mimic {Path(source).name}")
     show = _Progress(bar, log, entry.real_people)
@@ -416,6 +442,11 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
             camera_fov = round(inner.intrinsics().fov_deg, 2)
         rows.writerow(csv_header(env.n) if spec is None
                       else spatial_csv_header(spec.joint_names))
+        # Everything is loaded: a live stream's frames that queued up meanwhile are passed
+        # over, so the robot starts on the picture of now, and so are those that queue up
+        # later if the loop falls behind the source.
+        if live and hasattr(clip.frames, "keep_live"):
+            clip.frames.keep_live()
         try:
             write_behind(out / "mimic.mp4",
                          mimic_frames(env, controller, log, rows, servo, [show], realtime,
@@ -480,6 +511,11 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
     if robot is not None:
         summary["robot"], summary["mapping"] = robot, mapping
         summary["camera_fov_deg"] = camera_fov
+    if live:
+        behind = log.behind_stream_ms()
+        summary["frames_passed_over"] = int(getattr(clip.frames, "passed_over", 0))
+        summary["behind_stream_ms_median"] = float(np.median(behind)) if len(behind) else None
+        summary["behind_stream_ms_max"] = float(np.max(behind)) if len(behind) else None
     write_json(out / "mimic.json", summary)
     require_frames(frames, 0 if stopped or live else needed, source, why)
     return summary

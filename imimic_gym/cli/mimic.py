@@ -327,7 +327,10 @@ def add_mimic(sub: argparse._SubParsersAction) -> None:
                             "such as frames_%%04d.png")
     where.add_argument("--camera", default=None, metavar="INDEX|URL",
                        help="a live camera index (0) or stream URL; shows frames/s and "
-                            "latency, stops on Ctrl-C or when the camera disappears")
+                            "latency, stops on Ctrl-C or when the camera disappears; frames "
+                            "that queue up (while the models load, or behind a slower "
+                            "machine) are passed over, so the robot follows the picture of "
+                            "now")
     mimic.add_argument("--estimator", default=None,
                        choices=estimator_names(video_only=True),
                        help=f"the vision estimator (default: {MIMIC_ESTIMATOR}, which finds a "

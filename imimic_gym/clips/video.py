@@ -37,6 +37,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Generator, Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -47,8 +48,8 @@ from imimic_gym.clips.types import Clip
 
 __all__ = [
     "DEFAULT_JOINT_RANGE", "DEFAULT_REFERENCE_DIRECTION", "FrameStream", "ReadAhead",
-    "StreamEndedError", "VideoFormatError", "VideoOpenError", "VideoReader", "require_frames",
-    "stream_video", "video_meta",
+    "StreamClock", "StreamEndedError", "VideoFormatError", "VideoOpenError", "VideoReader",
+    "require_frames", "stream_video", "video_meta",
 ]
 
 DEFAULT_REFERENCE_DIRECTION = -math.pi / 2  # image down (CCW from image right)
@@ -56,6 +57,10 @@ DEFAULT_JOINT_RANGE = (-math.pi / 3, math.pi / 3)  # the paper's 120-degree serv
 LIVE_FPS = 30.0  # a camera that does not report its rate is taken to run at this
 UNBOUNDED = 2**31 - 1  # the nominal length of a stream whose length is unknown (frames)
 _COPIES_KEPT = 4  # a FrameStream's copies for `fresh` of the last frames read, at most
+MAX_SKIP_S = 5.0  # `VideoReader.skip_queued` passes over at most this much of a stream (s)
+REFERENCE_S = 10.0  # `VideoReader.behind_s` compares with the reads of this last while (s)
+MAX_BEHIND_S = 0.3  # a live frame read this much later than the promptest: the queue skipped
+START_DRAIN_S = 1.0  # `FrameStream.keep_live` reads on past the clock this much at most (s)
 
 
 class VideoOpenError(OSError):
@@ -127,7 +132,9 @@ class VideoReader:
     Attributes (after opening): ``fps`` (float, frames/s), ``width``, ``height``
     (pixels, of the first frame once read, else as the container reports),
     ``frame_count`` (the container's count, None when unknown or live),
-    ``frames_read``, ``skipped_frames``, ``live``.
+    ``frames_read``, ``skipped_frames``, ``live``; for a live source, ``last_clock``
+    (`StreamClock` of the last frame read, or None) and ``dropped_frames`` (passed over
+    by `skip_queued`).
     """
 
     def __init__(self, source: str | int | Path, fps: float | None = None,
@@ -141,8 +148,10 @@ class VideoReader:
         self.requested_fps = fps
         self.max_consecutive_failures = max_consecutive_failures
         self.capture: cv2.VideoCapture | None = None
-        self.frames_read = self.skipped_frames = 0
+        self.frames_read = self.skipped_frames = self.dropped_frames = 0
         self.shape: tuple[int, ...] | None = None
+        self.last_clock: StreamClock | None = None
+        self._offsets: deque[tuple[float, float]] = deque()  # (read at, less stream time)
 
     def open(self) -> VideoReader:
         if self.capture is not None:
@@ -232,30 +241,127 @@ class VideoReader:
             return True
         return not _decodes_cleanly(Path(str(self.source)))
 
+    def _clock(self) -> None:
+        """A live source: note when its last frame was read and the stream's own time
+        for it (None where the source keeps no clock: times that do not increase)."""
+        assert self.capture is not None
+        stream_s = self.capture.get(cv2.CAP_PROP_POS_MSEC) / 1000.0
+        previous = self.last_clock
+        ticking = math.isfinite(stream_s) and (
+            previous.stream_s < stream_s if previous is not None else stream_s >= 0.0)
+        self.last_clock = StreamClock(time.perf_counter(), stream_s) if ticking else None
+        if self.last_clock is None:
+            self._offsets.clear()  # a clock that restarts or stops: nothing to compare
+            return
+        read_at = self.last_clock.read_at
+        self._offsets.append((read_at, read_at - stream_s))
+        while self._offsets[0][0] < read_at - REFERENCE_S:
+            self._offsets.popleft()
+
+    def _rgb(self, bgr: np.ndarray) -> np.ndarray:
+        """A decoded frame as RGB, checked against the stream's first frame's size."""
+        if bgr.ndim == 2:
+            bgr = cv2.cvtColor(bgr, cv2.COLOR_GRAY2BGR)
+        if self.shape is None:
+            self.shape = bgr.shape
+            self.height, self.width = bgr.shape[:2]
+        elif bgr.shape != self.shape:
+            h, w = bgr.shape[:2]
+            raise VideoFormatError(
+                f"{self.name}: frame {self.frames_read + self.skipped_frames} is "
+                f"{w}x{h} but the video started at {self.width}x{self.height}; "
+                "a clip must keep one resolution"
+            )
+        self.frames_read += 1
+        return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+
     def __iter__(self) -> Generator[np.ndarray, None, None]:
         self.open()
         try:
             while (bgr := self._next_bgr()) is not None:
-                if bgr.ndim == 2:
-                    bgr = cv2.cvtColor(bgr, cv2.COLOR_GRAY2BGR)
-                if self.shape is None:
-                    self.shape = bgr.shape
-                    self.height, self.width = bgr.shape[:2]
-                elif bgr.shape != self.shape:
-                    h, w = bgr.shape[:2]
-                    raise VideoFormatError(
-                        f"{self.name}: frame {self.frames_read + self.skipped_frames} is "
-                        f"{w}x{h} but the video started at {self.width}x{self.height}; "
-                        "a clip must keep one resolution"
-                    )
-                self.frames_read += 1
-                yield cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+                if self.live:
+                    self._clock()
+                yield self._rgb(bgr)
             if self.frames_read == 0:
                 skipped = (f" ({self.skipped_frames} failed to decode)"
                            if self.skipped_frames else "")
                 raise VideoFormatError(f"{self.name} has no frames that can be decoded{skipped}")
         finally:
             self.close()
+
+    def behind_s(self) -> float:
+        """A live source's last frame: how much later it was read than the promptest
+        read of the last `REFERENCE_S` seconds would have it (each read's time less its
+        stream time), in s; 0 without a clock."""
+        if self.last_clock is None or not self._offsets:
+            return 0.0
+        return self._offset() - min(offset for _, offset in self._offsets)
+
+    def _offset(self) -> float:
+        assert self.last_clock is not None
+        return self.last_clock.read_at - self.last_clock.stream_s
+
+    def skip_queued(self, reference: float | None = None, drain_s: float = 0.0
+                    ) -> np.ndarray | None:
+        """A live source's frames that queued up while nobody read it, passed over; the
+        newest frame read, or None if none was (no clock, or the source ended).
+
+        ``reference``: a read's time less its stream time for a frame read as soon as
+        it came (None: the promptest of the last `REFERENCE_S` seconds). The source is
+        taken to send in real time, so while the last frame read is now over a frame's
+        time later than that, a newer one has been sent: the next one is decoded and
+        the one before dropped (``dropped_frames`` counts them), until one is not
+        behind, or one had to be waited for over half a frame's time (it came fresh: the
+        stream runs later than the reference, which it becomes). A stream sent ahead of
+        real time loses nothing by the clock. Frames that were already waiting when the
+        reference frame was read (OpenCV's probing of a stream, a sender that starts
+        ahead) look on time to it: ``drain_s`` > 0 reads on past the clock's last frame
+        while each frame comes at once, until one is waited for or ``drain_s`` of the
+        stream has gone by (a source whose frames are all there at once, a file://
+        URL, loses that much). At most `MAX_SKIP_S` of the stream's frames are passed
+        over in all."""
+        if (not self.live or self.capture is None or self.last_clock is None
+                or (reference is None and not self._offsets)):
+            return None
+        if reference is None:
+            reference = min(offset for _, offset in self._offsets)
+        period = 1.0 / self.fps
+        grabbed = 0
+        drain_until: float | None = None  # stream time
+        while self.last_clock is not None and grabbed < MAX_SKIP_S * self.fps:
+            if time.perf_counter() - self.last_clock.stream_s - reference <= period:
+                # Not behind by the clock: read on only while the frames were waiting.
+                if drain_until is None:
+                    drain_until = self.last_clock.stream_s + drain_s
+                if self.last_clock.stream_s >= drain_until:
+                    break
+            started = time.perf_counter()
+            if not self.capture.grab():
+                break
+            grabbed += 1
+            self._clock()
+            if self.last_clock is not None and self.last_clock.read_at - started > period / 2:
+                # Waited for: this frame is fresh and the stream runs later than the
+                # reference said (a network stall, a clock that drifts): it is the
+                # reference from now on.
+                self._offsets = deque([self._offsets[-1]])
+                break
+        if grabbed == 0:
+            return None
+        self.dropped_frames += grabbed  # the frame read before and all but the newest
+        ok, bgr = self.capture.retrieve()
+        return self._rgb(bgr) if ok and bgr is not None and bgr.size else None
+
+
+@dataclass(frozen=True)
+class StreamClock:
+    """When a live source's frame was read (``read_at``, `time.perf_counter` seconds)
+    and the stream's own time for it (``stream_s``, seconds, OpenCV's
+    ``CAP_PROP_POS_MSEC``: the network stream's timestamp, a camera driver's buffer
+    time)."""
+
+    read_at: float
+    stream_s: float
 
 
 class _Failed:
@@ -447,7 +553,9 @@ class FrameStream:
 
     ``read_ahead``: frames of a file decoded ahead on a thread (`ReadAhead`, never past
     the length, each with a copy for `fresh`); 0, or a live source (a camera, a URL),
-    reads each frame when asked for.
+    reads each frame when asked for. A live source's buffered frames keep their
+    `StreamClock` (`clock`); after `keep_live`, frames that queued up at the source
+    (a start-up, a loop slower than the source) are passed over.
     """
 
     dtype = np.dtype(np.uint8)
@@ -473,6 +581,10 @@ class FrameStream:
                                                          or max_frames < reader.frame_count)
             self._frames: deque[np.ndarray] = deque(maxlen=buffer)
             self._copies: dict[int, np.ndarray] = {}  # `fresh`'s, by frame index
+            self._clocks: dict[int, StreamClock] = {}  # a live source's, by frame index
+            self._buffer = buffer
+            self.live_now = False  # `keep_live`
+            self.passed_over = 0
             self._next_index = 0
             self.ended = False
             self._failed: Exception | None = None  # the reading's error, raised again
@@ -501,8 +613,60 @@ class FrameStream:
             if copy is not None:
                 self._copies[self._next_index] = copy
                 self._copies.pop(self._next_index - _COPIES_KEPT, None)
+        elif self.reader.live:
+            self._clocks.pop(self._next_index - self._buffer, None)
+            if self.reader.last_clock is not None:
+                self._clocks[self._next_index] = self.reader.last_clock
         self._next_index += 1
+        if self.live_now and self.reader.behind_s() > MAX_BEHIND_S:
+            self._skip(None)
         return True
+
+    def clock(self, index: int) -> StreamClock | None:
+        """A live source's frame ``index``: when it was read and the stream's time for
+        it, while it is buffered; None for a file, a frame gone from the buffer, or a
+        source that keeps no clock."""
+        return self._clocks.get(index)
+
+    def keep_live(self) -> int:
+        """From now on, read a live source as a robot must: the picture of now.
+
+        First, if only frame 0 has been read, it is replaced by the newest frame,
+        passing over those that queued up since it was read (the models loading, a
+        robot's bus opening) and those that were waiting already (up to `START_DRAIN_S`
+        of them; see `VideoReader.skip_queued`). Then each frame read over
+        `MAX_BEHIND_S` behind the stream's pace (`VideoReader.behind_s`: a loop slower
+        than the source) is replaced by the newest. The frames passed over are never
+        seen: the frames kept follow one another as if consecutive. ``passed_over``
+        counts them. Returns how many were passed over now; does nothing for a file or
+        a source without a clock."""
+        if not self.reader.live or self.reader.last_clock is None:
+            return 0
+        self.live_now = True
+        since = self._clocks.get(0)
+        if since is None or self._next_index != 1 or self.ended or self._failed is not None:
+            return 0
+        return self._skip(since.read_at - since.stream_s, START_DRAIN_S)
+
+    def _skip(self, reference: float | None, drain_s: float = 0.0) -> int:
+        """The last frame read replaced by the newest (`VideoReader.skip_queued`)."""
+        dropped = self.reader.dropped_frames
+        try:
+            newest = self.reader.skip_queued(reference, drain_s)
+        except Exception as error:
+            self._failed = error
+            raise
+        index = self._next_index - 1
+        if newest is not None:
+            self._frames[-1] = newest
+            self._copies.pop(index, None)
+            if self.reader.last_clock is not None:
+                self._clocks[index] = self.reader.last_clock
+            else:
+                self._clocks.pop(index, None)
+        passed = self.reader.dropped_frames - dropped
+        self.passed_over += passed
+        return passed
 
     def fresh(self, index: int) -> np.ndarray:
         """Frame ``index`` (as ``self[index]``) in an array of its own that nothing else

@@ -3,6 +3,7 @@
 import json
 import math
 import threading
+import time
 
 import cv2
 import gymnasium as gym
@@ -25,6 +26,7 @@ from imimic_gym.clips.video_load import load_video
 from imimic_gym.clips.video_writer import write_video
 from imimic_gym.estimators.don.one_link import DON
 from imimic_gym.metrics import angle_rmse_deg
+from tests.processes import stop, stream_live
 
 WARM_UP = 15  # frames: DON sees nothing before the arm has moved
 
@@ -219,6 +221,52 @@ def test_a_live_source_is_read_when_asked_for(servo_mp4) -> None:
     clip.frames[3]
     assert clip.frames.reader.frames_read == 4 and not decoding_threads(f"file://{servo_mp4}")
     clip.frames.close()
+
+
+def test_a_live_source_kept_live_passes_over_frames_read_late(servo_mp4) -> None:
+    # A file:// URL is a live source to the reader, whose frames are all there at once:
+    # read late against the stream's clock, it is what a camera read by a slow loop is.
+    clip = stream_video(f"file://{servo_mp4}")
+    frames = clip.frames
+    assert frames.clock(0) is not None and frames.clock(0).stream_s == 0.0
+    frames.keep_live()
+    before = frames.passed_over
+    time.sleep(0.5)  # a slow step: frame 1 is read 0.5 s after frame 0
+    frames[1]
+    passed = frames.passed_over - before
+    assert passed >= 1  # frame 1 is a later frame of the stream, the ones between gone
+    assert frames.clock(1).stream_s == pytest.approx((before + passed + 1) / clip.fps,
+                                                     abs=2e-3)
+    assert frames.reader.dropped_frames == frames.passed_over
+    frames.close()
+    # A file, or a stream not kept live, is read frame by frame however slowly.
+    second = list(VideoReader(servo_mp4))[1]
+    for source, keep in ((servo_mp4, True), (f"file://{servo_mp4}", False)):
+        clip = stream_video(source)
+        if keep:
+            assert clip.frames.keep_live() == 0
+        time.sleep(0.2)
+        np.testing.assert_array_equal(clip.frames[1], second)
+        assert clip.frames.passed_over == 0
+        clip.frames.close()
+
+
+def test_a_live_stream_kept_live_starts_on_the_frame_of_now(servo_mp4) -> None:
+    # ffmpeg sends the clip at its own rate over TCP, as an IP camera does; frame 0 is
+    # read on opening, then the run's start-up (1 s here) lets frames queue up.
+    player, url = stream_live(servo_mp4)
+    try:
+        clip = stream_video(url)
+        time.sleep(1.0)
+        passed = clip.frames.keep_live()
+        assert passed >= 1 and clip.frames.passed_over == passed
+        # Frame 0 is now the frame after the last one passed over (the old frame 0 too).
+        assert clip.frames.clock(0).stream_s == pytest.approx(passed / clip.fps, abs=2e-3)
+        clip.frames[1]
+        assert clip.frames.clock(1).stream_s > clip.frames.clock(0).stream_s
+        clip.frames.close()
+    finally:
+        stop(player)
 
 
 def test_missing_empty_and_undecodable_files_are_named(tmp_path) -> None:
