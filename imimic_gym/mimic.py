@@ -13,7 +13,9 @@ Outputs in ``out``: ``mimic.mp4`` (the footage with the estimate drawn on it by 
 estimator wrapper's ``render``, beside the simulated robot), ``angles.png`` (estimated
 vs robot angle), ``mimic.csv`` (one row a frame: ``time_s, frame, angle_rad,
 omega_rad_s, torque_nm, eta, predicted, robot_rad, latency_ms`` with one column per joint
-for the angle-like fields, suffixed 1..n) and ``mimic.json`` (frames/s after the first
+for the angle-like fields, suffixed 1..n; ``time_s`` is the frame's time in the footage,
+a live stream's own from its first frame used, so frames passed over leave their gap)
+and ``mimic.json`` (frames/s after the first
 frame, latency, how the run ended). Ctrl-C, or a camera that disappears, ends the run
 cleanly with all of them written up to that frame.
 
@@ -72,7 +74,10 @@ PREVIEW_HEIGHT = 540
 
 @dataclass
 class MimicLog:
-    """What `mimic_frames` measured, per frame. n joints; rad, rad/s, N m, ms."""
+    """What `mimic_frames` measured, per frame. n joints; rad, rad/s, N m, ms. ``time``
+    (s) is the frame's index over ``fps``; with a live source's ``clock``, its stream
+    time from frame 0's, so the frames passed over (`FrameStream.keep_live`) keep their
+    gap."""
 
     fps: float
     time: list[float] = field(default_factory=list)
@@ -88,6 +93,8 @@ class MimicLog:
     # Per frame: (command ready, frame read), each less the frame's stream time (s); None
     # without a clock.
     stream_offsets: list[tuple[float, float] | None] = field(default_factory=list)
+    _stream_zero: float | None = None  # stream time of frame 0 (s), from the first stamp
+    _shift: float = 0.0  # time less frame / fps, from the last frame with a stamp (s)
 
     def on_step(self, env: gym.Env, step: Step) -> None:
         """Observer (`rollout.episode`): the estimate (``env.last_estimate``, an
@@ -100,7 +107,13 @@ class MimicLog:
         latency = 1000.0 * (time.perf_counter() - asked)
         estimate = cast(EstimatorObservation, env).last_estimate
         assert estimate is not None  # every observation sets it
-        self.time.append(step.info["frame_index"] / self.fps)
+        index = step.info["frame_index"]
+        stamp = None if self.clock is None else self.clock(index)
+        if stamp is not None:  # the stream's time: frames passed over leave their gap
+            if self._stream_zero is None:
+                self._stream_zero = stamp.stream_s - index / self.fps
+            self._shift = stamp.stream_s - self._stream_zero - index / self.fps
+        self.time.append(index / self.fps + self._shift)
         self.angles.append(estimate.angles.copy())
         self.robot.append(step.obs["qpos"].copy())
         self.trust.append(estimate.trust)
@@ -109,7 +122,6 @@ class MimicLog:
         self.last_done = time.perf_counter()
         if self.first_done is None:
             self.first_done = self.last_done
-        stamp = None if self.clock is None else self.clock(step.info["frame_index"])
         self.stream_offsets.append(None if stamp is None else (
             self.last_done - stamp.stream_s, stamp.read_at - stamp.stream_s))
 
@@ -442,12 +454,12 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
             camera_fov = round(inner.intrinsics().fov_deg, 2)
         rows.writerow(csv_header(env.n) if spec is None
                       else spatial_csv_header(spec.joint_names))
-        # Everything is loaded: a live stream's frames that queued up meanwhile are passed
-        # over, so the robot starts on the picture of now, and so are those that queue up
-        # later if the loop falls behind the source.
-        if live and hasattr(clip.frames, "keep_live"):
-            clip.frames.keep_live()
         try:
+            # Everything is loaded: a live stream's frames that queued up meanwhile are
+            # passed over, so the robot starts on the picture of now, and so are those
+            # that queue up later if the loop falls behind the source.
+            if live and hasattr(clip.frames, "keep_live"):
+                clip.frames.keep_live()
             write_behind(out / "mimic.mp4",
                          mimic_frames(env, controller, log, rows, servo, [show], realtime,
                                       robot=spec),

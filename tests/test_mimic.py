@@ -164,7 +164,12 @@ def test_a_live_source_runs_until_it_stops(servo_mp4, tmp_path) -> None:
     summary = run_mimic(clip, tmp_path, progress=False)
     assert summary["ended"] == "camera stopped"
     assert summary["frames"] + summary["frames_passed_over"] == 90
-    assert len(read_csv(tmp_path / "mimic.csv")) == summary["frames"]
+    rows = read_csv(tmp_path / "mimic.csv")
+    assert len(rows) == summary["frames"]
+    # time_s is the stream's: a frame passed over leaves its gap (whole frames, in order).
+    steps = np.diff([float(row["time_s"]) for row in rows]) * clip.fps
+    assert np.all(np.abs(steps - np.round(steps)) < 0.01) and np.all(np.round(steps) >= 1)
+    assert round(float(rows[-1]["time_s"]) * clip.fps) <= 89
     assert 0.0 <= summary["behind_stream_ms_median"] <= summary["behind_stream_ms_max"]
     assert clip.frames.reader.capture is None
 
