@@ -153,11 +153,13 @@ def mimic(quick: bool) -> dict[str, Any]:
 
 
 class _LiveCamera:
-    """``path`` played as a camera sends: an MPEG-TS stream on a local TCP port (``url``)
-    whose first frame goes out when the client connects and each next one at the clip's
-    rate (ffmpeg, ``-re`` without its initial burst, started on the connection: an
-    ffmpeg that listens itself starts its clock before anyone connects and then sends
-    the frames "missed" at once, which no camera does). ``kill``/``wait`` stop it."""
+    """``path`` played about as a camera sends: an MPEG-TS stream on a local TCP port
+    (``url``) that starts when the client connects and goes on at the clip's rate
+    (ffmpeg, ``-re`` without its initial burst, started on the connection: an ffmpeg
+    that listens itself starts its clock before anyone connects and then sends the
+    frames "missed" at once, which no camera does). ffmpeg still sends its first half
+    second or so at once. ``loops``: times the clip plays again, its timestamps running
+    on. ``kill``/``wait`` stop it."""
 
     def __init__(self, path: Path, loops: int = 0) -> None:
         import socket
@@ -241,12 +243,12 @@ def camera(quick: bool) -> dict[str, Any]:
         return {"skipped": f"{source} not present"}
     work = work_folder("imimic_camera_")
     path = make_1080p(source, work / "ta_chi_1080p.mp4")
-    # The clip played three times over (30 s, timestamps running on), so that the stream
+    # The clip looped (40 s in all, timestamps running on), so that the stream
     # outlasts the run and what it passes over, and a run's start-up (the first frames
     # are slower) weighs on its rate as on a short session's, not more.
     seconds = 2.0 if quick else 24.0
     result: dict[str, Any] = {"clip": "ta_chi.mp4 (10 s) at 1920x1080 (H.264, CRF 18), "
-                                      "played three times over, streamed live over local TCP",
+                                      "looped, streamed live over local TCP",
                               "seconds": seconds}
     keys = ("frames", "frames_per_s", "latency_ms_median", "frames_passed_over",
             "behind_stream_ms_median", "behind_stream_ms_max")
@@ -412,10 +414,11 @@ Medians of {len(live['so101']['runs'])} runs each, interleaved:
 
 "Behind" is mimic.json's `behind_stream_ms`: a frame's command time less its stream time,
 less the run's promptest read (a frame read as it came); unlike the latency it counts a
-frame's wait in a queue. ffmpeg sends its first half second or so at once, ahead of real
-time, and those frames are not passed over (the stream's clock cannot tell them from
-frames read as they came), so each run starts that far behind and works it off at its
-spare rate.
+frame's wait in a queue. ffmpeg still sends its first half second or so at once, ahead
+of real time; the stream's clock cannot tell those frames from frames read as they came,
+so the start-up reads on while frames come at once (at most 1 s of the stream) and
+passes them over too. The first frames of a process are slow (the pose model's graph
+starting), so most runs pass over a few more frames right after the start.
 Keeps up with the 30 frames/s stream (at least 98% of its rate): **{'met' if kept
 else 'missed'}**.""")
     return "\n\n".join(out) + "\n"
