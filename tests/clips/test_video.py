@@ -269,6 +269,54 @@ def test_a_live_stream_kept_live_starts_on_the_frame_of_now(servo_mp4) -> None:
         stop(player)
 
 
+class StallingStream:
+    """Stands in for OpenCV's capture of a network stream (the edge this project does not
+    own): frame k, stamped k / 30 s, arrives at k / 30 s after the start, and from frame
+    30 on everything arrives ``stall`` seconds late (a network that stalled once). A
+    grab waits for its frame's arrival as a socket read does."""
+
+    def __init__(self, stall: float) -> None:
+        self.stall, self.start, self.k = stall, time.perf_counter(), -1
+
+    def grab(self) -> bool:
+        self.k += 1
+        arrival = self.start + self.k / 30.0 + (self.stall if self.k >= 30 else 0.0)
+        time.sleep(max(arrival - time.perf_counter(), 0.0))
+        return True
+
+    def retrieve(self) -> tuple[bool, np.ndarray]:
+        return True, np.full((8, 8, 3), self.k % 256, np.uint8)
+
+    def read(self) -> tuple[bool, np.ndarray]:
+        self.grab()
+        return self.retrieve()
+
+    def get(self, prop: int) -> float:
+        return 1000.0 * self.k / 30.0 if prop == cv2.CAP_PROP_POS_MSEC else 0.0
+
+    def release(self) -> None:
+        pass
+
+
+def test_a_stalled_stream_is_not_chased_frame_after_frame() -> None:
+    # After a 2 s stall every frame comes 2 s later than the stream's clock says: the
+    # loop is behind, so the queue is skipped, but the first frame it has to wait for
+    # ends the skip and becomes the reference. Without that the skip would wait for frame
+    # after frame, up to MAX_SKIP_S of them, while the robot got no command.
+    reader = VideoReader("tcp://127.0.0.1:9")  # a URL: live; nothing is opened
+    reader.capture, reader.fps, reader.frame_count = StallingStream(2.0), 30.0, None
+    frames = iter(reader)
+    for _ in range(31):  # frames 0-29 as they come, then frame 30, 2 s late
+        next(frames)
+    assert reader.behind_s() == pytest.approx(2.0, abs=0.25)
+    started = time.perf_counter()
+    newest = reader.skip_queued()
+    assert newest is not None and time.perf_counter() - started < 1.0
+    assert 1 <= reader.dropped_frames <= 5
+    assert reader.behind_s() == 0.0  # the frame waited for is the reference now
+    frames.close()
+
+
 def test_missing_empty_and_undecodable_files_are_named(tmp_path) -> None:
     with pytest.raises(VideoOpenError, match=r"cannot open video .*nope\.mp4: no such file"):
         load_video(tmp_path / "nope.mp4")
