@@ -125,11 +125,12 @@ class MimicLog:
         self.stream_offsets.append(None if stamp is None else (
             self.last_done - stamp.stream_s, stamp.read_at - stamp.stream_s))
 
-    def drop_last(self) -> None:
-        """Forget the last frame logged (one whose outputs were not all written)."""
+    def truncate(self, frames: int) -> None:
+        """Forget every frame after the first ``frames`` (those whose outputs were not all
+        written; a Ctrl-C may cut `on_step` short, so the series may differ in length)."""
         for series in (self.time, self.angles, self.robot, self.trust, self.predicted,
                        self.latency_ms, self.stream_offsets):
-            del series[-1:]
+            del series[frames:]
         if not self.time:
             self.first_done = self.last_done = None
 
@@ -262,8 +263,9 @@ def mimic_frames(env: EstimatorObservation, controller: Any, log: MimicLog, rows
 
     Observers, in order: the joint command to ``servo`` (a `ServoBridge`) and ``log``
     (the estimate, robot angle and latency); then, once the frame is drawn, a row into the
-    csv writer ``rows`` and ``observers`` (a progress display). A frame whose drawing is
-    interrupted (Ctrl-C) is taken back out of ``log``; a Ctrl-C from its row until the
+    csv writer ``rows`` and ``observers`` (a progress display). A frame interrupted
+    (Ctrl-C) anywhere from its logging to its drawing is taken back out of ``log``
+    (`MimicLog.truncate`); a Ctrl-C from its row until the
     consumer asks for the next frame is raised then, so the log, the CSV and the frames
     yielded end at the same frame. A stream that ends early ends the run, not an error.
     ``realtime`` waits until frame i's time (i / fps after the first). ``robot``: a
@@ -275,12 +277,13 @@ def mimic_frames(env: EstimatorObservation, controller: Any, log: MimicLog, rows
     drawn: list[Observer] = ([] if rows is None else [CsvLog(rows, log)] if robot is None
                              else [SpatialCsvLog(rows, log, robot)])
     drawn.extend(observers)
-    for step in episode(env, controller, seed=0, observers=[*watching, log],
-                        realtime=realtime):
-        try:
+    for step in episode(env, controller, seed=0, observers=watching, realtime=realtime):
+        logged = len(log.time)
+        try:  # a Ctrl-C from logging the frame to its picture: the frame is not logged
+            log.on_step(env, step)
             frame = cast(np.ndarray, env.render())  # render_mode="rgb_array"
         except BaseException:
-            log.drop_last()
+            log.truncate(logged)
             raise
         with ctrl_c_held():  # the row, the progress and the video all take the frame
             for observer in drawn:

@@ -464,17 +464,32 @@ class InterruptedRender(gym.Wrapper):
         return self.env.render()
 
 
-def test_a_frame_whose_drawing_ctrl_c_stops_is_in_no_output(servo_mp4, tmp_path) -> None:
-    """A Ctrl-C while frame 7 is drawn: the log, the CSV and the video all end at frame 6."""
+class InterruptedLog(MimicLog):
+    """Stands in for Ctrl-C landing just after the log took a frame, before its picture:
+    the ``at``-th frame logged raises KeyboardInterrupt once logged."""
+
+    at = 7
+
+    def on_step(self, env, step) -> None:
+        super().on_step(env, step)
+        if len(self.time) == self.at:
+            raise KeyboardInterrupt
+
+
+@pytest.mark.parametrize("where", ["drawing", "logging"])
+def test_a_frame_whose_drawing_ctrl_c_stops_is_in_no_output(servo_mp4, tmp_path,
+                                                           where: str) -> None:
+    """A Ctrl-C while frame 7 is drawn, or just after it was logged: the log, the CSV and
+    the video all end at frame 6."""
     from imimic_gym.controllers import EstimateTarget, PDController
-    from imimic_gym.mimic import MimicLog, csv_header, mimic_frames, write_behind
+    from imimic_gym.mimic import csv_header, mimic_frames, write_behind
     from imimic_gym.wrappers import RegistryObservation
 
     clip = stream_video(servo_mp4, reference_direction=math.pi / 2)
-    env = RegistryObservation(InterruptedRender(
-        gym.make("ImitateVideo-v0", clip=clip, render_mode="rgb_array"), at=7), "don",
-        keep_frame=False)
-    log = MimicLog(fps=clip.fps)
+    scene = gym.make("ImitateVideo-v0", clip=clip, render_mode="rgb_array")
+    env = RegistryObservation(InterruptedRender(scene, at=7) if where == "drawing" else scene,
+                              "don", keep_frame=False)
+    log = MimicLog(fps=clip.fps) if where == "drawing" else InterruptedLog(fps=clip.fps)
     with (tmp_path / "mimic.csv").open("w", newline="") as table:
         rows = csv.writer(table)
         rows.writerow(csv_header(1))
