@@ -295,11 +295,8 @@ class VideoReader:
         stream time), in s; 0 without a clock."""
         if self.last_clock is None or not self._offsets:
             return 0.0
-        return self._offset() - min(offset for _, offset in self._offsets)
-
-    def _offset(self) -> float:
-        assert self.last_clock is not None
-        return self.last_clock.read_at - self.last_clock.stream_s
+        last = self.last_clock
+        return last.read_at - last.stream_s - min(offset for _, offset in self._offsets)
 
     def skip_queued(self, reference: float | None = None, drain_s: float = 0.0
                     ) -> np.ndarray | None:
@@ -582,7 +579,6 @@ class FrameStream:
             self._frames: deque[np.ndarray] = deque(maxlen=buffer)
             self._copies: dict[int, np.ndarray] = {}  # `fresh`'s, by frame index
             self._clocks: dict[int, StreamClock] = {}  # a live source's, by frame index
-            self._buffer = buffer
             self.live_now = False  # `keep_live`
             self.passed_over = 0
             self._next_index = 0
@@ -614,7 +610,7 @@ class FrameStream:
                 self._copies[self._next_index] = copy
                 self._copies.pop(self._next_index - _COPIES_KEPT, None)
         elif self.reader.live:
-            self._clocks.pop(self._next_index - self._buffer, None)
+            self._clocks.pop(self._next_index - (self._frames.maxlen or 0), None)
             if self.reader.last_clock is not None:
                 self._clocks[self._next_index] = self.reader.last_clock
         self._next_index += 1
@@ -659,7 +655,6 @@ class FrameStream:
         index = self._next_index - 1
         if newest is not None:
             self._frames[-1] = newest
-            self._copies.pop(index, None)
             if self.reader.last_clock is not None:
                 self._clocks[index] = self.reader.last_clock
             else:
