@@ -155,9 +155,12 @@ def _evaluate_spatial(spec: ClipSpec, clip: Clip, estimator: str, seed: int,
     assert clip.depth is not None  # rendered
     context = replace(clip_context(spec, clip, modality), intrinsics=clip_intrinsics(clip))
     reader = build_spatial_estimator(estimator, context)
-    reader.reset()
-    poses = [reader.update(frame, depth) for frame, depth in zip(clip.frames, clip.depth,
-                                                                 strict=True)]
+    try:
+        reader.reset()
+        poses = [reader.update(frame, depth) for frame, depth in zip(clip.frames, clip.depth,
+                                                                     strict=True)]
+    finally:
+        _close(reader)
     truth = arm_poses(clip)
 
     def stack(which: list, what: str) -> np.ndarray:
@@ -215,9 +218,22 @@ def summarise_estimator(scenario: str, estimator: str, modality: str,
 
 
 def run_estimator(estimator: Any, frames: Any) -> list:
-    """Every estimate of ``estimator`` over ``frames`` (T, H, W, 3) uint8, from a reset."""
-    estimator.reset()
-    return [estimator.update(frame) for frame in frames]
+    """Every estimate of ``estimator`` over ``frames`` (T, H, W, 3) uint8, from a reset.
+    The estimator is closed at the end (`_close`)."""
+    try:
+        estimator.reset()
+        return [estimator.update(frame) for frame in frames]
+    finally:
+        _close(estimator)
+
+
+def _close(estimator: Any) -> None:
+    """The estimator's ``close``, if it has one. A pose model's graph that is not closed
+    keeps its native memory (about 100 MB) to the end of the process: a sweep that
+    scores clip after clip in one process ran out of 24 GB."""
+    close = getattr(estimator, "close", None)
+    if callable(close):
+        close()
 
 
 def evaluate_photos(annotations: str | Path, images: str | Path, estimator: str,

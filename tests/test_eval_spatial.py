@@ -42,3 +42,25 @@ def test_the_suite_drives_the_so101_on_a_spatial_scenario(estimator, tmp_path) -
     # Joint RMSE against the retargeted truth: measured 2.2 deg for the oracle and 13.1 for
     # pose3d on seed 1000 (issue 40: about 2x).
     assert result["mean"]["rmse_deg"] < (4.5 if estimator == "oracle" else 26.0)
+
+
+@pytest.mark.parametrize(("scenario", "estimator"), [("spatial-reach", "pose3d"),
+                                                     ("default", "pose")])
+def test_scoring_a_clip_closes_the_pose_models_graph(scenario, estimator,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """A graph left open keeps its native memory (about 100 MB) to the end of the
+    process: a sweep scoring clip after clip in one process ran out of memory."""
+    from imimic_gym.estimators.pose.model import PoseModel
+    from imimic_gym.evaluation import evaluate_clip
+
+    models: list[PoseModel] = []
+    start = PoseModel._start
+
+    def started(self: PoseModel) -> None:
+        models.append(self)
+        start(self)
+
+    monkeypatch.setattr(PoseModel, "_start", started)
+    row = evaluate_clip(scenario, estimator, seed=3, frames=12)
+    assert row["coverage" if estimator == "pose3d" else "mean_trust"] > 0.0
+    assert models and all(model._graph is None for model in models)
