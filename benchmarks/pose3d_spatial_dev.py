@@ -145,7 +145,8 @@ def replay(data: dict[str, Any], setting: dict[str, Any] | None, oracles: set[st
                 z0 = lift_module.shoulder_depth(pixels, confidence, camera,
                                                 lifter.lengths(side))
                 depth = truth3d[i][:, 2] * focal / z0
-            poses.append(lifter(side, pixels, confidence, depth, i / data["fps"]))
+            poses.append(lifter(side, pixels, confidence, depth,
+                                i / data["fps"]).within_elbow_range())
     finally:
         lift_module.shoulder_depth = original
     return poses

@@ -73,6 +73,8 @@ EQUIVALENT: dict[str, str] = {
     f"{_MAPPING}to_robot__mutmut_4": _REAL_MATMUL,
     f"{_ARM_POSE}in_arm_frame__mutmut_2": _REAL_MATMUL,
     f"{_ARM_POSE}in_arm_frame__mutmut_4": _REAL_MATMUL,
+    f"{_ARM_POSE}within_elbow_range__mutmut_1": "at exactly the range's end the flexion is "
+                                                "set to the value it reads already",
     f"{_METRICS}bootstrap_interval__mutmut_17": "Generator.integers(n) draws from [0, n) as "
                                                 "integers(0, n) does, the same stream",
     f"{_METRICS}lag_frames__mutmut_12": _RESHAPE,

@@ -18,19 +18,22 @@ arm straight, rad.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from imimic_gym.kinematics import keypoints_to_angles
 
-__all__ = ["ARM_POINTS", "SIDES", "ArmPose", "angle_between", "unit"]
+__all__ = ["ARM_POINTS", "MAX_ELBOW_FLEXION", "SIDES", "ArmPose", "angle_between", "unit"]
 
 # The points an ArmPose holds, in this order. "hand" is the hand's far end (the index
 # finger's knuckle on the pose model); "other_*" are the other side's.
 ARM_POINTS = ("shoulder", "elbow", "wrist", "hand", "other_shoulder", "hip", "other_hip")
 SIDES = ("left", "right")
 _S, _E, _W, _H, _OS, _HIP, _OHIP = range(len(ARM_POINTS))
+# An adult elbow's active flexion: 0 to 150 degrees (the AAOS's range, as the rendered
+# demonstrator's; rad). `ArmPose.within_elbow_range` reads an estimate down to it.
+MAX_ELBOW_FLEXION = math.radians(150.0)
 # Below this confidence a hip does not set the torso's up (the camera's up is used).
 HIP_CONFIDENCE = 0.5
 _CAMERA_UP = np.array([0.0, -1.0, 0.0])
@@ -118,6 +121,15 @@ class ArmPose:
         if self.flexion is not None:
             return self.flexion
         return float(angle_between(self.upper_arm, self.forearm))
+
+    def within_elbow_range(self) -> ArmPose:
+        """This pose with its `elbow_flexion` at most `MAX_ELBOW_FLEXION`: an estimate
+        that reads an elbow bent further than an elbow bends (the pose model's keypoints
+        of a full curl put the wrist on the shoulder) reads it as bent as it can be. The
+        points are kept; only ``flexion`` is set."""
+        if self.elbow_flexion <= MAX_ELBOW_FLEXION:
+            return self
+        return replace(self, flexion=MAX_ELBOW_FLEXION)
 
     @property
     def wrist_flexion(self) -> float:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from imimic_gym.spatial import ArmPose, Intrinsics, angle_between
-from imimic_gym.spatial.arm_pose import unit
+from imimic_gym.spatial.arm_pose import MAX_ELBOW_FLEXION, unit
 
 # A right arm of a person facing the camera 2 m away: upper arm hanging, forearm toward
 # the camera (a 90-degree elbow).
@@ -181,3 +181,20 @@ def test_a_tilted_torso_along_the_shoulders_takes_the_cameras_up_square_to_them(
     np.testing.assert_allclose(frame @ frame.T, np.eye(3), atol=1e-12)
     np.testing.assert_allclose(frame[1], [-math.sqrt(0.5), math.sqrt(0.5), 0], atol=1e-12)
     np.testing.assert_allclose(frame[2], [-math.sqrt(0.5), -math.sqrt(0.5), 0], atol=1e-12)
+
+
+def test_an_elbow_past_an_adults_range_reads_150_degrees() -> None:
+    """`within_elbow_range`: a bend past 150 degrees reads 150 (points kept); one within
+    it is the same pose; a given flexion past it is read down too."""
+    straight_up = RIGHT.copy()  # the forearm folded 170 degrees back up the upper arm
+    fold = math.radians(170.0)
+    straight_up[2] = RIGHT[1] + 0.25 * np.array([math.sin(fold), math.cos(fold), 0.0])
+    folded = pose("right", straight_up)
+    assert math.degrees(folded.elbow_flexion) == pytest.approx(170.0)
+    within = folded.within_elbow_range()
+    assert within.elbow_flexion == MAX_ELBOW_FLEXION == pytest.approx(math.radians(150.0))
+    np.testing.assert_array_equal(within.points, folded.points)
+    bent = pose("right", RIGHT)  # 90 degrees
+    assert bent.within_elbow_range() is bent
+    given = ArmPose("right", RIGHT, np.ones(7), np.zeros((7, 2)), flexion=3.0)
+    assert given.within_elbow_range().elbow_flexion == MAX_ELBOW_FLEXION

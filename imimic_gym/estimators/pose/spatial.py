@@ -15,6 +15,9 @@ by one of three routes (``source``):
 - ``"world"``: the model's own 3-D world landmarks, placed with the shoulder where the
   lift puts it (the baseline).
 
+The lift's and the depth route's elbow flexion is at most an adult elbow's, 150 degrees
+(`ArmPose.within_elbow_range`); the world landmarks' is MediaPipe's own.
+
 A frame where the arm is not seen (nobody, or its shoulder, elbow or wrist below
 ``min_confidence``) returns the last pose held (trust 0); before any reading, the neutral
 pose (`spatial.lift.neutral_pose`: a person 2.5 m away on the optical axis, facing the
@@ -154,14 +157,14 @@ class Pose3DEstimator:
         if self.source == "depth":
             assert depth is not None  # checked in update
             return self._from_depth(side, pixels, confidence, np.asarray(depth, float),
-                                    camera)
+                                    camera).within_elbow_range()
         if self.source == "world":
             if body.world is None:
                 return None
             z0 = shoulder_depth(pixels, confidence, camera, self.lifter.prior)
             return from_world_landmarks(side, body.world[rows], pixels, confidence, camera,
                                         depth_of_shoulder=z0)
-        return self.lifter(side, pixels, confidence, model_depth, time_s)
+        return self.lifter(side, pixels, confidence, model_depth, time_s).within_elbow_range()
 
     def _from_depth(self, side: str, pixels: np.ndarray, confidence: np.ndarray,
                     depth: np.ndarray, camera: Intrinsics) -> ArmPose:

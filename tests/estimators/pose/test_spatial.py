@@ -62,15 +62,17 @@ def test_the_depth_route_reads_the_rendered_depth(person_clip) -> None:
 
 
 
-def person(forearm_z: float = -0.5, confidence: float = 0.9, world: bool = True
-           ) -> tuple[BodyKeypoints, np.ndarray]:
+def person(forearm_z: float = -0.5, confidence: float = 0.9, world: bool = True,
+           fore: np.ndarray | None = None) -> tuple[BodyKeypoints, np.ndarray]:
     """A person 2.5 m away facing the camera, their left upper arm hanging, the forearm
-    forward (toward the camera) and down; their right arm hanging. The reading, and the
-    left arm's true (7, 3) points in `ARM_POINTS` order."""
+    forward (toward the camera) and down (or along the unit vector ``fore``); their
+    right arm hanging. The reading, and the left arm's true (7, 3) points in
+    `ARM_POINTS` order."""
     half, top, bottom = 0.18, -0.25, 0.25
     points = {"left_shoulder": [half, top, 2.5], "right_shoulder": [-half, top, 2.5],
               "left_hip": [0.7 * half, bottom, 2.5], "right_hip": [-0.7 * half, bottom, 2.5]}
-    fore = np.array([0.0, math.sqrt(1 - forearm_z ** 2), forearm_z])
+    if fore is None:
+        fore = np.array([0.0, math.sqrt(1 - forearm_z ** 2), forearm_z])
     for side, x in (("left", half), ("right", -half)):
         points[f"{side}_elbow"] = [x, top + 0.29, 2.5]
         direction = fore if side == "left" else np.array([0, 1.0, 0])
@@ -96,6 +98,20 @@ def test_the_lift_through_the_estimator_is_exact_on_exact_keypoints() -> None:
         np.testing.assert_allclose(pose.points, truth, atol=1e-6)
         assert pose.side == "left" and pose.trust == pytest.approx(0.9)
         assert math.degrees(pose.elbow_flexion) == pytest.approx(30.0)
+
+
+def test_an_elbow_read_past_its_range_reads_as_bent_as_it_can_be() -> None:
+    """Keypoints that fold the forearm 160 degrees from the upper arm (the pose model's
+    full curl) read 150, an adult elbow's most, with the lift's points kept; pose-world,
+    the baseline, keeps MediaPipe's own."""
+    fold = math.radians(160.0)
+    body, truth = person(fore=np.array([math.sin(fold), math.cos(fold), 0.0]))
+    for source, flexion in (("lift", 150.0), ("world", 160.0)):
+        estimator = Pose3DEstimator(30.0, CAMERA, arm="left", source=source,
+                                    model=ScriptedModel([body]), lift=EXACT)
+        pose = estimator.update(FRAME)
+        np.testing.assert_allclose(pose.points, truth, atol=1e-6)
+        assert math.degrees(pose.elbow_flexion) == pytest.approx(flexion)
 
 
 def test_intrinsics_follow_the_frames_size() -> None:
