@@ -458,10 +458,14 @@ def run_mimic(clip: Any, out: str | Path, estimator: str = "don", control: str =
         rows.writerow(csv_header(env.n) if spec is None
                       else spatial_csv_header(spec.joint_names))
         try:
-            # Everything is loaded: a live stream's frames that queued up meanwhile are
-            # passed over, so the robot starts on the picture of now, and so are those
-            # that queue up later if the loop falls behind the source.
+            # What the first frame would pay for is paid now: the pose model's first
+            # reading (on a blank frame) and, for a camera, the robot view's GL context.
+            # Then a live stream's frames that queued up meanwhile are passed over, so
+            # the robot starts on the picture of now, and so are those that queue up
+            # later if the loop falls behind the source.
+            env.warm_up()
             if live and hasattr(clip.frames, "keep_live"):
+                imitate_env(env).prepare_render()
                 clip.frames.keep_live()
             write_behind(out / "mimic.mp4",
                          mimic_frames(env, controller, log, rows, servo, [show], realtime,

@@ -417,8 +417,9 @@ less the run's promptest read (a frame read as it came); unlike the latency it c
 frame's wait in a queue. ffmpeg still sends its first half second or so at once, ahead
 of real time; the stream's clock cannot tell those frames from frames read as they came,
 so the start-up reads on while frames come at once (at most 1 s of the stream) and
-passes them over too. The first frames of a process are slow (the pose model's graph
-starting), so most runs pass over a few more frames right after the start.
+passes them over too. The pose model's first reading and the robot view's GL context
+are made before the catch-up (`run_mimic`'s warm start); the loop's first second is still
+slower than the rest, so some runs pass over about ten more frames then.
 Keeps up with the 30 frames/s stream (at least 98% of its rate): **{'met' if kept
 else 'missed'}**.""")
     return "\n\n".join(out) + "\n"

@@ -162,6 +162,14 @@ class EstimatorObservation(gym.ObservationWrapper, gym.utils.RecordConstructorAr
         self.estimator.reset()
         return super().reset(**kwargs)
 
+    def warm_up(self) -> None:
+        """The estimator's ``warm_up``, if it has one (a pose model's first reading, done
+        on a blank frame, so that the first frame reads at full speed); else nothing.
+        What the estimator reads is unchanged."""
+        warm_up = getattr(self.estimator, "warm_up", None)
+        if callable(warm_up):
+            warm_up()
+
     def close(self) -> None:
         """The env's ``close`` and the estimator's, if it has one (a pose model's thread
         stops)."""

@@ -76,6 +76,12 @@ class RetargetedEstimator:
         if callable(prefetch):
             prefetch(frame)
 
+    def warm_up(self) -> None:
+        """The spatial estimator's ``warm_up``, if it has one; else nothing."""
+        warm_up = getattr(self.spatial, "warm_up", None)
+        if callable(warm_up):
+            warm_up()
+
     def close(self) -> None:
         """The spatial estimator's ``close``, if it has one (its threads stop)."""
         close = getattr(self.spatial, "close", None)

@@ -204,6 +204,42 @@ def test_estimating_ahead_gives_the_same_estimates_and_stops_its_thread(
 
 
 @pytest.mark.parametrize("estimator", ["pose", "pose3d"])
+def test_a_warmed_up_estimator_estimates_as_a_cold_one(person_mp4, estimator: str) -> None:
+    """`warm_up` (what `imimic mimic` calls before a camera is caught up with) starts the
+    pose model's graph on a blank frame; the env's reset keeps that graph, and every
+    observation is the cold wrapper's, bit for bit."""
+    runs = {}
+    for warm in (False, True):
+        env, clip = person_env(person_mp4, estimator, estimate_ahead=True)
+        model = (env.estimator.model if estimator == "pose"
+                 else env.estimator.spatial.model)
+        assert model._graph is None
+        if warm:
+            env.warm_up()
+            graph = model._graph
+            assert graph is not None
+            env.warm_up()  # a second call starts nothing new
+            assert model._graph is graph
+        controller = PDController(env, EstimateTarget(env))
+        obs, _ = env.reset(seed=0)
+        if warm:
+            assert model._graph is graph
+        seen = [obs["estimate"]]
+        truncated = False
+        while not truncated:
+            obs, _, _, truncated, _ = env.step(controller(obs))
+            seen.append(obs["estimate"])
+        used = model._graph
+        env.reset(seed=0)  # a graph that has read frames is not kept: a new video
+        assert model._graph is not used
+        env.close()
+        clip.frames.close()
+        runs[warm] = np.array(seen)
+    assert len(runs[True]) == 20 and (runs[True][:, -2] > 0).sum() >= 8  # trust
+    np.testing.assert_array_equal(runs[True], runs[False])
+
+
+@pytest.mark.parametrize("estimator", ["pose", "pose3d"])
 def test_a_cameras_next_frame_is_read_once_the_command_is_out_and_estimated_while_drawing(
         person_mp4, estimator: str) -> None:
     """A live source (a URL, as a camera): with ``ahead_when_drawn`` the step reads only

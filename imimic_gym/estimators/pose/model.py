@@ -195,7 +195,8 @@ class PoseModel:
 
     Frames handed over ahead (`submit`) are read on the model's thread (``thread``, a
     daemon, started by the first of them); `close` and `reset` drop those not read yet
-    and stop the thread.
+    and stop the thread. The graph starts at a video's first frame, or before it with
+    `warm_up`; close the model when done with it (a graph holds about 100 MB).
     """
 
     def __init__(self, video: bool = True, min_confidence: float = 0.5,
@@ -208,6 +209,8 @@ class PoseModel:
         self.video, self.min_confidence, self.max_side = video, min_confidence, max_side
         self.join_timeout_s = join_timeout_s
         self._graph: Any = None
+        self._warm = False  # the graph has read `warm_up`'s blank frame and nothing since
+        self._origin_us = 0  # the stamp frame times count from (past the blank frame's)
         self._submitted: deque[_Reading] = deque()  # in order, until called for
         self._readings: queue.Queue[_Reading | None] = queue.Queue()
         self.thread: threading.Thread | None = None
@@ -215,8 +218,27 @@ class PoseModel:
 
     def reset(self) -> None:
         """Forget the person tracked so far: the next frame starts a new video (the
-        model's graph starts on that frame)."""
-        self.close()
+        model's graph starts on that frame, unless `warm_up` started it and it has read
+        nothing since)."""
+        if not (self._warm and self.thread is None and not self._submitted):
+            self.close()
+
+    def warm_up(self) -> None:
+        """Start the graph now and read one blank frame with it, so that the video's
+        first frame reads at full speed: a new graph's first reading costs several
+        frames' time (the models' tensors and kernels are set up then), which a live
+        stream would otherwise pay after it was caught up with. The readings that follow
+        are those a fresh graph gives (the blank frame holds nobody, so no filter keeps
+        a state from it; their frame times count from past its stamp). Nothing if the
+        graph has started already."""
+        if self._graph is not None:
+            return
+        with native_logs_quiet():
+            self._start()
+            graph: Any = self._graph
+            graph.process(np.zeros((256, 256, 3), dtype=np.uint8))
+        self._origin_us = graph._simulated_timestamp
+        self._warm = True
 
     def _start(self) -> None:
         self._graph = _solution().Pose(
@@ -256,6 +278,7 @@ class PoseModel:
         if self._graph is not None:
             self._graph.close()
             self._graph = None
+        self._warm, self._origin_us = False, 0
 
     @property
     def pending(self) -> int:
@@ -328,16 +351,18 @@ class PoseModel:
                 self._start()
         if time_s is not None:
             # MediaPipe's timestamps are microseconds; the legacy solution stamps each frame
-            # one step after the last, so the first frame (time 0) gets one step. Set the
-            # last stamp so that this frame gets its own time.
-            last = self._graph._simulated_timestamp
+            # one step after the last, so the first frame (time 0) gets one step past the
+            # origin (0, or `warm_up`'s blank frame). Set the last stamp so that this frame
+            # gets its own time.
+            last, origin = self._graph._simulated_timestamp, self._origin_us
             if not (math.isfinite(time_s) and time_s >= 0
-                    and _LEGACY_STEP_US + round(time_s * 1e6) > last):
-                after = ("" if last == 0
-                         else f" after {(last - _LEGACY_STEP_US) / 1e6:g} s")
+                    and _LEGACY_STEP_US + origin + round(time_s * 1e6) > last):
+                after = ("" if last == origin
+                         else f" after {(last - origin - _LEGACY_STEP_US) / 1e6:g} s")
                 raise ValueError(f"PoseModel: frame times must be at least 0 s and increase "
                                  f"from call to call, got {time_s!r} s{after}")
-            self._graph._simulated_timestamp = round(time_s * 1e6)
+            self._graph._simulated_timestamp = origin + round(time_s * 1e6)
+        self._warm = False
         h, w = size[:2]
         with warnings.catch_warnings():
             # protobuf 4.25 warns of an API MediaPipe 0.10.14 calls on every frame.

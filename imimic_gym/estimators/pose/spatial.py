@@ -120,6 +120,11 @@ class Pose3DEstimator:
         `update` of that same array then takes its reading."""
         self.model.submit(frame, (self.reads + self.model.pending) / self.fps)
 
+    def warm_up(self) -> None:
+        """The pose model's first reading done now, on a blank frame (`PoseModel.warm_up`):
+        the first frame then reads at full speed; the readings are unchanged."""
+        self.model.warm_up()
+
     def close(self) -> None:
         """Stop the pose model (`PoseModel.close`); a later frame starts it again."""
         self.model.close()

@@ -91,6 +91,31 @@ def test_frame_times_reach_the_models_filters_and_must_increase(person_clip) -> 
     assert model._graph._simulated_timestamp == 2 * step
 
 
+def test_a_warmed_up_model_reads_as_a_fresh_one_and_keeps_its_frame_times(
+        person_clip) -> None:
+    """`warm_up` reads a blank frame with a new graph; the video's frames then read as a
+    fresh graph reads them, bit for bit, and their times are checked and stamped from past
+    the blank frame's."""
+    frames = list(person_clip.frames[:8])
+    fresh = PoseModel(video=True)
+    expected = [fresh(frame, t / 30.0) for t, frame in enumerate(frames)]
+    model = PoseModel(video=True)
+    model.warm_up()
+    graph, origin = model._graph, model._graph._simulated_timestamp
+    model.reset()  # a warm graph that has read nothing is kept
+    assert model._graph is graph and origin == 33333
+    got = [model(frame, t / 30.0) for t, frame in enumerate(frames)]
+    assert sum(body is not None for body in got) >= 6
+    assert all(same_bodies(a, b) for a, b in zip(got, expected, strict=True))
+    assert model._graph._simulated_timestamp == origin + round(7 / 30.0 * 1e6) + 33333
+    with pytest.raises(ValueError, match=r"increase from call to call, got 0.2 s after "
+                                         r"0.2333.* s$"):
+        model(frames[0], 0.2)
+    model.reset()  # a graph that has read frames is closed: the next frame starts anew
+    assert model._graph is None
+    assert same_bodies(model(frames[0], 0.0), expected[0])
+
+
 def test_a_copied_or_pickled_model_is_a_fresh_one_with_the_same_settings() -> None:
     model = PoseModel(video=False, min_confidence=0.4, max_side=320)
     for twin in (copy.deepcopy(model), pickle.loads(pickle.dumps(model))):
