@@ -77,6 +77,11 @@ LENGTH_QUANTILE = 0.8
 # A shoulder this far (metres) behind the elbow's, other shoulder's and hips' median
 # depth is the wall behind it (`from_depth`).
 _BEHIND = 0.3
+# A shoulder this far (metres) in front of both its own hip and the other shoulder (each
+# seen with confidence 0.5 or more) has something before it, a hand raised to it
+# (`from_depth`): a torso turned puts its hip level with it, one leaning the other
+# shoulder.
+_IN_FRONT = 0.15
 # Limb radii (metres): a depth camera sees a limb's surface, this far in front of its axis.
 LIMB_RADIUS = np.array([0.05, 0.04, 0.03, 0.015, 0.05, 0.08, 0.08])
 _HIP_WIDTH_RATIO = 0.7  # the hips' keypoints' distance / the shoulders'
@@ -539,7 +544,9 @@ def from_depth(side: str, pixels: np.ndarray, confidence: np.ndarray,
             axis). The nearer quarter, not the median: a keypoint on a limb's or the
             body's outline has the wall behind half its window. A shoulder more than
             `_BEHIND` m behind the other body keypoints' median depth (the window missed
-            the body) takes that median.
+            the body) takes that median; one more than `_IN_FRONT` m in front of both
+            its own hip and the other shoulder (the window saw a hand before it) takes
+            the nearer of their depths.
         fallback: where a keypoint has no valid depth, this pose's point (None: the
             median depth of the keypoints found, confidence 0; `DEFAULT_DEPTH` if none).
         lengths: (3,) metres of upper arm, forearm and hand, or None. Given, an arm bone
@@ -573,6 +580,9 @@ def from_depth(side: str, pixels: np.ndarray, confidence: np.ndarray,
     body = body[np.isfinite(body)]
     if body.size and np.isfinite(depths[_S]) and depths[_S] > np.median(body) + _BEHIND:
         depths[_S] = float(np.median(body))
+    torso = [depths[i] for i in (_OS, _HIP) if np.isfinite(depths[i]) and confidence[i] >= 0.5]
+    if torso and np.isfinite(depths[_S]) and depths[_S] < min(torso) - _IN_FRONT:
+        depths[_S] = float(min(torso))
     found = np.isfinite(depths)
     points = intrinsics.back_project(pixels, np.where(found, depths, 1.0))
     confidence = confidence.copy()

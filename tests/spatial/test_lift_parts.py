@@ -258,6 +258,37 @@ def test_from_depth_adds_each_limbs_radius_and_sends_a_shoulder_on_the_wall_forw
     assert kept.points[0, 2] == pytest.approx(2.36)
 
 
+def test_from_depth_sends_a_shoulder_with_a_hand_before_it_back_to_the_torso() -> None:
+    """A hand raised before the shoulder (a curl toward the camera): the shoulder's window
+    reads the hand. Over 0.15 m in front of both its own hip and the other shoulder, it
+    takes the nearer of their depths; a lean (in front of its hip alone) or a turn (in
+    front of the other shoulder alone) is kept, and so is a reading of unsure ones."""
+    def image_with(depths: list[float]) -> np.ndarray:
+        image = np.zeros((480, 640))
+        for (x, y), z in zip(SPREAD.astype(int), depths, strict=True):
+            image[y - 2:y + 3, x - 2:x + 3] = z
+        return image
+
+    # shoulder, elbow, wrist, hand, other shoulder, hip, other hip
+    hand = from_depth("right", SPREAD, np.ones(7),
+                      image_with([1.7, 2.0, 2.0, 2.0, 2.0, 2.05, 2.0]), CAMERA, window=2)
+    assert hand.points[0, 2] == pytest.approx(2.0 + LIMB_RADIUS[4])  # the other shoulder's
+    near = from_depth("right", SPREAD, np.ones(7),
+                      image_with([1.9, 2.0, 2.0, 2.0, 2.0, 2.0, 2.0]), CAMERA, window=2)
+    assert near.points[0, 2] == pytest.approx(1.9 + LIMB_RADIUS[0])  # within 0.15: kept
+    lean = from_depth("right", SPREAD, np.ones(7),
+                      image_with([1.7, 1.8, 1.8, 1.8, 1.75, 2.0, 2.0]), CAMERA, window=2)
+    assert lean.points[0, 2] == pytest.approx(1.7 + LIMB_RADIUS[0])
+    turn = from_depth("right", SPREAD, np.ones(7),
+                      image_with([1.7, 1.8, 1.8, 1.8, 2.0, 1.72, 2.0]), CAMERA, window=2)
+    assert turn.points[0, 2] == pytest.approx(1.7 + LIMB_RADIUS[0])
+    unsure = np.ones(7)
+    unsure[[4, 5]] = 0.3
+    kept = from_depth("right", SPREAD, unsure,
+                      image_with([1.7, 2.0, 2.0, 2.0, 2.0, 2.05, 2.0]), CAMERA, window=2)
+    assert kept.points[0, 2] == pytest.approx(1.7 + LIMB_RADIUS[0])
+
+
 def test_from_depth_solves_a_bone_off_its_length_beyond_the_tolerance() -> None:
     """An arm square to the camera, 2 m away; the depth camera reads the wrist ``behind``
     m too deep (the wall behind it): its forearm 21% too long is kept, 50%
