@@ -554,7 +554,9 @@ def from_depth(side: str, pixels: np.ndarray, confidence: np.ndarray,
             than ``length_tolerance`` of it (the window saw something else: the hand in
             front of the elbow, the wall behind a thin wrist), is solved as the lift
             solves it: on its far end's ray at its length from its start, toward or away
-            as the measured depth says (`lift_arm`).
+            as the measured depth says (`lift_arm`); a far end read over `_BEHIND` m
+            behind the torso's median depth (its window missed the limb and saw the
+            wall) says neither, and the root toward the camera is taken.
 
     Returns:
         The `ArmPose`, ``trust`` the least confidence of shoulder, elbow and wrist.
@@ -596,12 +598,16 @@ def from_depth(side: str, pixels: np.ndarray, confidence: np.ndarray,
         confidence[~found] = 0.0
     if lengths is not None:
         rays = intrinsics.rays(pixels)
+        torso = depths[[_S, _OS, _HIP, _OHIP]]
+        torso = torso[np.isfinite(torso)]
+        wall = float(np.median(torso)) + _BEHIND if torso.size else math.inf
         for (start, end, _), length in zip(_ARM_BONES, np.asarray(lengths, float),
                                            strict=True):
             measured = float(np.linalg.norm(points[end] - points[start]))
             if found[end] and abs(measured - length) <= length_tolerance * length:
                 continue
-            delta = float(depths[end] - points[start, 2]) if found[end] else None
+            delta = (float(depths[end] - points[start, 2])
+                     if found[end] and depths[end] <= wall else None)
             points[end] = _solve_bone(points[start], rays[end], length, delta, None,
                                       0.0).end
             confidence[end] = confidence[end] if found[end] else 0.0

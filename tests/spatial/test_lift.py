@@ -389,6 +389,24 @@ def test_from_depth_mends_an_occluded_elbow_and_a_shoulder_on_the_wall() -> None
     assert math.degrees(angle_between(pose.forearm, true.forearm)) < 10.0
 
 
+def test_from_depth_takes_a_wrist_whose_window_saw_the_wall_as_no_say() -> None:
+    """The forearm points at the camera and the pose model put the wrist and the hand off
+    the limb: their windows see the wall, 4 m away. That says neither toward nor away:
+    the forearm is solved at its length toward the camera, not sent to the wall's side."""
+    truth = arm("right", np.array([0, 1.0, 0]), unit_vector([0.2, 0.1, -1]))
+    pixels, _ = observe(truth)
+    depth_image = np.full((CAMERA.height, CAMERA.width), 4.0, np.float32)
+    for i in (4, 5, 6, 0, 1):  # the body and the upper arm; not the wrist nor the hand
+        col, row = round(pixels[i, 0]), round(pixels[i, 1])
+        depth_image[row - 2:row + 3, col - 2:col + 3] = truth[i, 2] - LIMB_RADIUS[i]
+    pose = from_depth("right", pixels, np.ones(7), depth_image, CAMERA, window=2,
+                      lengths=LENGTHS.arm)
+    true = ArmPose("right", truth, np.ones(7), pixels)
+    assert math.degrees(angle_between(pose.forearm, true.forearm)) < 5.0
+    assert float(np.linalg.norm(pose.points[2] - pose.points[1])) == pytest.approx(
+        LENGTHS.arm[1])
+
+
 def test_the_share_filter_reads_still_arms_from_exact_keypoints() -> None:
     """40 random arms held still for 1 s, exact keypoints and model depth: the filter's
     forearm direction error has a median under 5 degrees (measured 4.2; 3.2 with the
