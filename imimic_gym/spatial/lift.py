@@ -598,9 +598,9 @@ def from_depth(side: str, pixels: np.ndarray, confidence: np.ndarray,
         confidence[~found] = 0.0
     if lengths is not None:
         rays = intrinsics.rays(pixels)
-        torso = depths[[_S, _OS, _HIP, _OHIP]]
-        torso = torso[np.isfinite(torso)]
-        wall = float(np.median(torso)) + _BEHIND if torso.size else math.inf
+        trunk = depths[[_S, _OS, _HIP, _OHIP]]
+        trunk = trunk[np.isfinite(trunk)]
+        wall = float(np.median(trunk)) + _BEHIND if trunk.size else math.inf
         for (start, end, _), length in zip(_ARM_BONES, np.asarray(lengths, float),
                                            strict=True):
             measured = float(np.linalg.norm(points[end] - points[start]))
